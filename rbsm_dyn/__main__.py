@@ -1,0 +1,142 @@
+"""Command line: python -m rbsm_dyn [run|check|info] CASE.yaml [options].
+
+Exit status: 0 success, 2 bad case (one message naming file, line and key),
+1 failed run (divergence or no convergence, with step and time; the
+history file stays readable up to the failure).
+"""
+import argparse
+import os
+import sys
+import time
+
+
+def _parser():
+    p = argparse.ArgumentParser(prog="python -m rbsm_dyn",
+                                description="Rigid-body-spring model (Kawai RBSM), explicit dynamics.")
+    p.add_argument("command_or_case", help="run | check | info, or the case file to run")
+    p.add_argument("case", nargs="?", help="case file (after a command)")
+    p.add_argument("--out", help="output HDF5 file (overrides output.file)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--max-steps", type=int, default=None,
+                   help="stop after this many steps (iterations in static mode)")
+    p.add_argument("--threads", type=int, default=None, help="Numba threads")
+    return p
+
+
+class Progress:
+    """tqdm bar over steps with time and kinetic energy (or residual)."""
+
+    def __init__(self, enabled):
+        self.enabled = enabled
+        self.bar = None
+
+    def start(self, total, dt):
+        if self.enabled:
+            from tqdm import tqdm
+            self.bar = tqdm(total=total, unit="step", dynamic_ncols=True, file=sys.stderr,
+                            mininterval=0.5)
+
+    def update(self, n, t, value, label="Ek"):
+        if self.bar is not None:
+            self.bar.n = n
+            self.bar.set_postfix_str(f"t={t:.4g} {label}={value:.3g}", refresh=False)
+            self.bar.refresh()
+
+    def close(self):
+        if self.bar is not None:
+            self.bar.close()
+
+
+def main(argv=None):
+    args = _parser().parse_args(argv)
+    if args.command_or_case in ("run", "check", "info"):
+        command, path = args.command_or_case, args.case
+        if path is None:
+            print(f"rbsm_dyn: {command} needs a case file", file=sys.stderr)
+            return 2
+    else:
+        command, path = "run", args.command_or_case
+    threads = args.threads
+    from .case import CaseError, load_case
+    try:
+        case = load_case(path)
+    except CaseError as exc:
+        print(f"rbsm_dyn: {exc}", file=sys.stderr)
+        return 2
+    except OSError as exc:
+        print(f"rbsm_dyn: {path}: cannot read the case file ({exc.strerror})", file=sys.stderr)
+        return 2
+    if threads is None:
+        threads = getattr(case.solver, "threads", None)
+    import numba
+    if threads:
+        numba.set_num_threads(min(int(threads), numba.config.NUMBA_NUM_THREADS))
+    from .model import build_model
+    try:
+        model = build_model(case)
+    except CaseError as exc:
+        print(f"rbsm_dyn: {exc}", file=sys.stderr)
+        return 2
+    if command == "check":
+        print(f"{path}: ok ({model.n_bodies} bodies, {model.n_springs} spring points)")
+        return 0
+    if command == "info":
+        dt = model.stable_dt()
+        print(f"case        {case.name}")
+        print(f"bodies      {model.n_bodies}")
+        print(f"springs     {model.n_springs} ({int(model.is_support.sum())} supports, {model.n_cut} cut)")
+        print(f"stable dt   {dt:.4g} s (estimate; used × dt_safety {case.solver.dt_safety})")
+        if case.solver.mode == "dynamic":
+            print(f"steps       {int(case.solver.end_time / (dt * case.solver.dt_safety)) + 1}")
+        return 0
+    return _run(case, model, args, threads or numba.get_num_threads())
+
+
+def _run(case, model, args, threads):
+    from .case import CaseError
+    from .solvers import explicit, relax
+    from .solvers.output import Recorder
+    out = args.out or case.output.file
+    extra = {"residual": "1"} if case.solver.mode == "static" else {}
+    if case.solver.mode not in ("dynamic", "static"):
+        print(f"rbsm_dyn: {case.error(('solver', 'mode'), 'mode ' + case.solver.mode + ' is not implemented yet (issue 3)')}",
+              file=sys.stderr)
+        return 2
+    rec = Recorder(case, model, out, threads=threads, extra_observables=extra)
+    progress = Progress(not args.quiet and sys.stderr.isatty() or (not args.quiet and os.environ.get("RBSM_PROGRESS")))
+    t0 = time.perf_counter()
+    try:
+        if case.solver.mode == "dynamic":
+            res = explicit.run(case, model, rec, max_steps=args.max_steps, progress=progress)
+            summary = (f"{res['steps']} steps, dt = {res['dt']:.4g} s "
+                       f"(estimate {res['dt_estimate']:.4g} s)")
+        else:
+            res = relax.run(case, model, rec, max_steps=args.max_steps, progress=progress)
+            summary = f"{len(res['iterations'])} load steps, {sum(res['iterations'])} iterations"
+    except explicit.RunFailed as exc:
+        progress.close()
+        rec.close()
+        print(f"rbsm_dyn: run failed: {exc}; history kept in {out}", file=sys.stderr)
+        return 1
+    except CaseError as exc:
+        progress.close()
+        rec.fail(str(exc))
+        rec.close()
+        print(f"rbsm_dyn: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        progress.close()
+        rec.fail("interrupted")
+        rec.close()
+        print(f"rbsm_dyn: interrupted; history kept in {out}", file=sys.stderr)
+        return 130
+    progress.close()
+    rec.close()
+    if not args.quiet:
+        print(f"rbsm_dyn: {case.name}: {model.n_bodies} bodies, {model.n_springs} springs, "
+              f"{summary}, {time.perf_counter() - t0:.2f} s -> {out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,821 @@
+"""The case file: YAML 1.2 text -> validated :class:`Case` (SI units).
+
+Reading goes in four steps, each of which raises :class:`CaseError` naming
+the file, the line and the key path (``case.yaml:12: materials.steel.young:
+must be > 0 (got -7e+10)``):
+
+1. ``_parse``: ruamel.yaml round-trip loader (YAML 1.2, so ``1e-5`` is a
+   float and ``yes`` is a string).  Syntax errors, duplicate keys, non-UTF-8
+   bytes, an empty document, a top level that is not a mapping and any tag
+   outside the YAML core schema are rejected.  The tree is copied into plain
+   Python objects while the line of every key and list item is recorded.
+2. Schema: the pydantic v2 models below (unknown keys forbidden, numbers are
+   numbers: no strings, no booleans, no NaN or infinity).
+3. ``_check``: cross-field rules (names that must exist, box bounds, ...).
+4. ``_to_si``: unit conversion driven by the single table ``DIMENSIONS``,
+   then the defaults that depend on other values (output file, interval).
+
+docs/case_file.md is the user's description of the schema.
+"""
+from __future__ import annotations
+
+import datetime
+import math
+import re
+from pathlib import Path
+from typing import Annotated, Any, Literal, Optional, Union
+
+from pydantic import (BaseModel, BeforeValidator, ConfigDict, Discriminator,
+                      Field, PrivateAttr, Tag, ValidationError, model_validator)
+from pydantic_core import PydanticCustomError
+from ruamel.yaml import YAML
+from ruamel.yaml.comments import CommentedMap, CommentedSeq, TaggedScalar
+from ruamel.yaml.error import MarkedYAMLError, YAMLError
+
+__all__ = [
+    "CaseError", "load_case", "load_case_text", "Case", "Domain", "Mesh",
+    "Material", "Yield", "Rupture", "Group", "FaceSupport", "GroupFix",
+    "GroupVelocity", "GroupDisplacement", "InitialVelocity", "GroupLoad",
+    "Gravity", "Cut", "Damping", "Solver", "Probe", "Output", "DIMENSIONS",
+    "MAX_CELLS",
+]
+
+KeyPath = tuple  # a key path: str keys and int list indices
+
+MAX_CELLS = 5e6          # a mesh with more cells than this is refused
+DOCUMENT = "<document>"  # key path shown for errors about the whole file
+
+
+# ---------------------------------------------------------------- errors ---
+
+def format_path(path: KeyPath) -> str:
+    """``("boundary", 0, "fix")`` -> ``"boundary[0].fix"``."""
+    out = ""
+    for part in path:
+        if isinstance(part, int) and not isinstance(part, bool):
+            out += f"[{part}]"
+        else:
+            out += ("." if out else "") + str(part)
+    return out or DOCUMENT
+
+
+class CaseError(Exception):
+    """A bad case file.  ``str(e) == "file:line: key.path: message"``.
+
+    Attributes: ``file``, ``line`` (int, or None when unknown: shown as
+    ``?``), ``path`` (dotted key path string), ``key_path`` (the tuple) and
+    ``message``.
+    """
+
+    def __init__(self, file: str, line: Optional[int], path: KeyPath | str,
+                 message: str):
+        self.file = file
+        self.line = line
+        self.key_path = tuple(path) if not isinstance(path, str) else (path,)
+        self.path = path if isinstance(path, str) else format_path(path)
+        self.message = message
+        self.others: list[CaseError] = []   # all schema errors, when several
+        super().__init__(str(self))
+
+    def __str__(self) -> str:
+        line = "?" if self.line is None else self.line
+        return f"{self.file}:{line}: {self.path}: {self.message}"
+
+
+def _fail(message: str) -> PydanticCustomError:
+    """A validation error whose message is shown to the user unchanged."""
+    return PydanticCustomError("case", "{message}", {"message": message})
+
+
+def _show(value: Any) -> str:
+    """A value as the user would write it in YAML, for messages."""
+    if value is None:
+        return "null"
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, float):
+        text = f"{value:g}"
+        return text + ".0" if text.lstrip("-").isdigit() else text
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, str):
+        return repr(value)
+    if isinstance(value, dict):
+        return "a mapping"
+    if isinstance(value, list):
+        return "a list"
+    return repr(value)
+
+
+# ------------------------------------------------------------ the schema ---
+
+class _Node(BaseModel):
+    """Base of every case model: strict numbers, unknown keys refused."""
+    model_config = ConfigDict(extra="forbid", strict=True,
+                              allow_inf_nan=False, populate_by_name=True)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _known_keys(cls, data: Any) -> Any:
+        if isinstance(data, dict):
+            allowed = [f.alias or n for n, f in cls.model_fields.items()]
+            for key in data:
+                if key not in allowed:
+                    raise PydanticCustomError(
+                        "unknown_key", "{message}",
+                        {"key": key, "message": f"unknown key {key!r} "
+                         f"(allowed: {', '.join(allowed)})"})
+        return data
+
+    def given(self, key: str) -> bool:
+        """True when the YAML gave ``key`` (a field name or YAML alias)."""
+        for name, f in type(self).model_fields.items():
+            if key in (name, f.alias):
+                return name in self.model_fields_set
+        return False
+
+
+def _length(n: int, form: str):
+    """Before-validator: a list must have exactly ``n`` items."""
+    def check(value: Any) -> Any:
+        if isinstance(value, list) and len(value) != n:
+            raise _fail(f"expected {n} values {form} (got {len(value)})")
+        return value
+    return BeforeValidator(check)
+
+
+Vec3 = Annotated[list[float], _length(3, "[x, y, z]")]
+Vec3Free = Annotated[list[Optional[float]], _length(3, "[x, y, z] (null = free)")]
+Box = Annotated[list[Vec3], _length(2, "[[x0, y0, z0], [x1, y1, z1]]")]
+History = Annotated[list[Annotated[list[float], _length(2, "[time, amplitude]")]],
+                    Field(min_length=1)]
+Face = Literal["xmin", "xmax", "ymin", "ymax", "zmin", "zmax"]
+Component = Literal["x", "y", "z", "rx", "ry", "rz"]
+FaceComponent = Literal["x", "y", "z"]
+
+
+def _fix_list(components: tuple[str, ...]):
+    """Before-validator: ``fix: all`` -> the explicit list of components."""
+    def expand(value: Any) -> Any:
+        if value == "all":
+            return list(components)
+        if isinstance(value, str):
+            raise _fail(f"must be all or a list of {', '.join(components)} "
+                        f"(got {value!r})")
+        return value
+    return BeforeValidator(expand)
+
+
+class Domain(_Node):
+    """The box that is cut into cells: ``box = [[x0, y0, z0], [x1, y1, z1]]``."""
+    box: Box
+
+
+class Mesh(_Node):
+    """``kind: voronoi`` (size, seed, min_spacing) or ``kind: blocks`` (divisions)."""
+    kind: Literal["voronoi", "blocks"]
+    size: Optional[float] = Field(default=None, gt=0)
+    seed: int = Field(default=0, ge=0)
+    min_spacing: float = Field(default=0.5, ge=0, le=0.9)
+    divisions: Optional[Annotated[list[Annotated[int, Field(ge=1)]],
+                                  _length(3, "[nx, ny, nz]")]] = None
+    spring_points: Literal["moment", "centroid", "three"] = "moment"
+
+
+class Yield(_Node):
+    """Yield criterion of the springs (accepted, not yet used by the solver)."""
+    criterion: Literal["normal", "tresca", "von_mises", "mohr_coulomb"]
+    stress: Optional[float] = Field(default=None, gt=0)
+    cohesion: Optional[float] = Field(default=None, ge=0)
+    friction_angle: Optional[float] = Field(default=None, ge=0, lt=90)  # degrees
+    tension: Optional[float] = Field(default=None, ge=0)
+
+
+class Rupture(_Node):
+    """``{strain}`` or ``{fracture_energy, tensile_strength}``."""
+    strain: Optional[float] = Field(default=None, gt=0)
+    fracture_energy: Optional[float] = Field(default=None, gt=0)
+    tensile_strength: Optional[float] = Field(default=None, gt=0)
+
+
+class Material(_Node):
+    density: float = Field(gt=0)
+    young: float = Field(gt=0)
+    poisson: float = Field(ge=0, lt=0.5)
+    stiffness: Literal["calibrated", "kawai"] = "calibrated"
+    yield_: Optional[Yield] = Field(default=None, alias="yield")
+    rupture: Optional[Rupture] = None
+    friction: Optional[float] = Field(default=None, ge=0)
+
+
+class Group(_Node):
+    """Bodies whose centroid lies in ``box`` (bounds included)."""
+    box: Box
+    material: Optional[str] = None
+
+
+class FaceSupport(_Node):
+    """``{face: xmin, fix: all}``: springs to the ground on a domain face."""
+    face: Face
+    fix: Annotated[list[FaceComponent], _fix_list(("x", "y", "z"))]
+
+
+class GroupFix(_Node):
+    """``{group: g, fix: [x, z, ry]}``: fixed components of a group's bodies."""
+    group: str
+    fix: Annotated[list[Component], _fix_list(("x", "y", "z", "rx", "ry", "rz"))]
+
+
+class GroupVelocity(_Node):
+    """``{group: g, velocity: [vx, vy, vz], history}``; None = free component."""
+    group: str
+    velocity: Vec3Free
+    history: Optional[History] = None
+
+
+class GroupDisplacement(_Node):
+    """``{group: g, displacement: [ux, uy, uz], history}``; None = free."""
+    group: str
+    displacement: Vec3Free
+    history: Optional[History] = None
+
+
+class InitialVelocity(_Node):
+    """``{group: g, velocity, angular_velocity}`` at t = 0."""
+    group: str = "all"
+    velocity: Vec3 = [0.0, 0.0, 0.0]
+    angular_velocity: Vec3 = [0.0, 0.0, 0.0]
+
+
+class GroupLoad(_Node):
+    """Total force (and moment) on a group, shared in proportion to volume."""
+    group: str
+    force: Vec3 = [0.0, 0.0, 0.0]
+    moment: Vec3 = [0.0, 0.0, 0.0]
+    history: Optional[History] = None
+
+
+class Gravity(_Node):
+    """``{gravity: [gx, gy, gz]}``: acceleration on every body."""
+    gravity: Vec3
+
+
+class Cut(_Node):
+    """Pre-broken springs: crossing the plane (point, normal) inside ``within``."""
+    point: Vec3
+    normal: Vec3
+    within: Box
+
+
+class Damping(_Node):
+    """Mass-proportional damping ``alpha`` [1/s]."""
+    alpha: float = Field(default=0.0, ge=0)
+
+
+class Solver(_Node):
+    mode: Literal["dynamic", "static", "linear", "modal"]
+    end_time: Optional[float] = Field(default=None, gt=0)
+    dt: Optional[float] = Field(default=None, gt=0)
+    dt_safety: float = Field(default=0.8, gt=0, le=1)
+    damping: Damping = Damping()
+    load_steps: int = Field(default=10, ge=1)
+    tolerance: float = Field(default=1e-6, gt=0)
+    max_iterations: int = Field(default=200000, ge=1)
+    relaxation: Literal["local", "kinetic"] = "local"
+    damping_factor: float = Field(default=0.7, ge=0, lt=1)
+    threads: Optional[int] = Field(default=None, ge=1)
+
+
+DYNAMIC_KEYS = ("end_time", "dt", "dt_safety", "damping")
+STATIC_KEYS = ("load_steps", "tolerance", "max_iterations", "relaxation",
+               "damping_factor")
+
+
+class Probe(_Node):
+    group: str
+    quantity: Literal["displacement", "rotation", "velocity", "force", "reaction"]
+    component: Literal["x", "y", "z", "magnitude"]
+    reduce: Literal["mean", "sum", "max", "min"]
+
+
+FieldName = Literal["position", "orientation", "velocity", "angular_velocity",
+                    "spring_state", "spring_force"]
+
+
+class Output(_Node):
+    file: Optional[str] = None              # default <name>.h5
+    interval: Optional[float] = Field(default=None, gt=0)  # default end_time/100
+    fields: list[FieldName] = ["position", "orientation"]
+    probes: dict[str, Probe] = {}
+
+
+def _form_of(forms: dict[str, str]):
+    """Discriminator by keys present: the first key of ``forms`` found.
+    (A model instance, when serializing, is tagged by its class name.)"""
+    def pick(value: Any) -> Optional[str]:
+        if isinstance(value, BaseModel):
+            return type(value).__name__
+        if isinstance(value, dict):
+            for key, tag in forms.items():
+                if key in value:
+                    return tag
+        return None
+    return pick
+
+
+_BOUNDARY_FORMS = ("{face, fix}, {group, fix}, {group, velocity[, history]}, "
+                   "{group, displacement[, history]}")
+_LOAD_FORMS = "{group, force[, moment][, history]}, {gravity}"
+
+BoundaryItem = Annotated[
+    Union[Annotated[FaceSupport, Tag("FaceSupport")],
+          Annotated[GroupFix, Tag("GroupFix")],
+          Annotated[GroupVelocity, Tag("GroupVelocity")],
+          Annotated[GroupDisplacement, Tag("GroupDisplacement")]],
+    Discriminator(_form_of({"face": "FaceSupport", "fix": "GroupFix",
+                            "velocity": "GroupVelocity",
+                            "displacement": "GroupDisplacement"}),
+                  custom_error_type="form",
+                  custom_error_message=f"expected one of {_BOUNDARY_FORMS}")]
+LoadItem = Annotated[
+    Union[Annotated[Gravity, Tag("Gravity")],
+          Annotated[GroupLoad, Tag("GroupLoad")]],
+    Discriminator(_form_of({"gravity": "Gravity", "group": "GroupLoad",
+                            "force": "GroupLoad", "moment": "GroupLoad"}),
+                  custom_error_type="form",
+                  custom_error_message=f"expected one of {_LOAD_FORMS}")]
+_TAGS = {"FaceSupport", "GroupFix", "GroupVelocity", "GroupDisplacement",
+         "Gravity", "GroupLoad"}
+
+
+class Case(_Node):
+    """The validated case, values in SI, defaults filled.
+
+    ``source_text`` is the YAML verbatim, ``source_file`` its file name,
+    ``input_units`` the ``units:`` the file was written in (``units`` itself
+    is ``SI`` after loading, since every value has been converted).
+    """
+    name: str = Field(min_length=1)
+    description: Optional[str] = None
+    units: Literal["SI", "mm-N-s"] = "SI"
+    domain: Domain
+    mesh: Mesh
+    materials: dict[str, Material]
+    groups: dict[str, Group] = {}
+    boundary: list[BoundaryItem] = []
+    initial: list[InitialVelocity] = []
+    loads: list[LoadItem] = []
+    cuts: list[Cut] = []
+    solver: Solver
+    output: Output = Output()
+
+    _source_text: str = PrivateAttr(default="")
+    _source_file: str = PrivateAttr(default="<string>")
+    _lines: dict = PrivateAttr(default_factory=dict)
+    _input_units: str = PrivateAttr(default="SI")
+
+    @property
+    def source_text(self) -> str:
+        return self._source_text
+
+    @property
+    def source_file(self) -> str:
+        return self._source_file
+
+    @property
+    def input_units(self) -> str:
+        return self._input_units
+
+    def resolved(self) -> dict:
+        """The validated case (SI, defaults filled) as a JSON-able dict."""
+        return self.model_dump(mode="json", by_alias=True)
+
+    def line_of(self, path: KeyPath) -> Optional[int]:
+        """Line (1-based) of the YAML key or list item at ``path``, or None."""
+        return self._lines.get(tuple(path))
+
+    def error(self, path: KeyPath, message: str) -> CaseError:
+        """A CaseError at ``path`` (line of the nearest key the file has)."""
+        return CaseError(self._source_file, _nearest_line(self._lines, path),
+                         tuple(path), message)
+
+
+# ----------------------------------------------------------------- units ---
+
+#: Dimension of every dimensional field, by (model, field).  History tables
+#: are [time, amplitude] pairs: only the time column has a dimension.
+DIMENSIONS: dict[tuple[type, str], str] = {
+    (Domain, "box"): "length",
+    (Mesh, "size"): "length",
+    (Material, "density"): "density",
+    (Material, "young"): "stress",
+    (Yield, "stress"): "stress",
+    (Yield, "cohesion"): "stress",
+    (Yield, "tension"): "stress",
+    (Rupture, "fracture_energy"): "energy/area",
+    (Rupture, "tensile_strength"): "stress",
+    (Group, "box"): "length",
+    (GroupVelocity, "velocity"): "velocity",
+    (GroupVelocity, "history"): "history",
+    (GroupDisplacement, "displacement"): "length",
+    (GroupDisplacement, "history"): "history",
+    (InitialVelocity, "velocity"): "velocity",
+    (InitialVelocity, "angular_velocity"): "1/time",
+    (GroupLoad, "force"): "force",
+    (GroupLoad, "moment"): "moment",
+    (GroupLoad, "history"): "history",
+    (Gravity, "gravity"): "acceleration",
+    (Cut, "point"): "length",
+    (Cut, "within"): "length",
+    (Damping, "alpha"): "1/time",
+    (Solver, "end_time"): "time",
+    (Solver, "dt"): "time",
+    (Output, "interval"): "time",
+}
+
+#: SI value = factor * value in the case's units.
+UNIT_FACTORS: dict[str, dict[str, float]] = {
+    "SI": {},
+    "mm-N-s": {"length": 1e-3, "time": 1.0, "1/time": 1.0, "velocity": 1e-3,
+               "acceleration": 1e-3, "force": 1.0, "moment": 1e-3,
+               "stress": 1e6, "density": 1e12, "energy/area": 1e3},
+}
+
+
+def _scale(value: Any, factor: float) -> Any:
+    if value is None:
+        return None
+    if isinstance(value, list):
+        return [_scale(v, factor) for v in value]
+    return value * factor
+
+
+def _to_si(node: Any, factors: dict[str, float]) -> None:
+    """Convert every field named in DIMENSIONS, in place, recursively."""
+    if isinstance(node, list):
+        for item in node:
+            _to_si(item, factors)
+    elif isinstance(node, dict):
+        for item in node.values():
+            _to_si(item, factors)
+    elif isinstance(node, BaseModel):
+        for name in type(node).model_fields:
+            value = getattr(node, name)
+            dim = DIMENSIONS.get((type(node), name))
+            if dim == "history" and value is not None:
+                f = factors.get("time", 1.0)
+                setattr(node, name, [[t * f, a] for t, a in value])
+            elif dim is not None:
+                setattr(node, name, _scale(value, factors.get(dim, 1.0)))
+            else:
+                _to_si(value, factors)
+
+
+# ---------------------------------------------------------------- parsing ---
+
+_CORE_TAGS = {f"tag:yaml.org,2002:{t}" for t in
+              ("str", "int", "float", "bool", "null", "map", "seq", "timestamp")}
+
+
+def _nearest_line(lines: dict, path: KeyPath) -> Optional[int]:
+    path = tuple(path)
+    while path not in lines and path:
+        path = path[:-1]
+    return lines.get(path)
+
+
+def _plain(node: Any, path: KeyPath, lines: dict, file: str) -> Any:
+    """Copy the ruamel tree into plain Python, recording lines in ``lines``."""
+    def bad_tag(tag: str) -> CaseError:
+        tag = tag.replace("tag:yaml.org,2002:", "!!")
+        return CaseError(file, _nearest_line(lines, path), path,
+                         f"tag {tag} is not allowed (plain YAML values only)")
+
+    if isinstance(node, TaggedScalar):
+        if node.tag.value == "tag:yaml.org,2002:str":
+            return str(node.value)
+        raise bad_tag(node.tag.value)
+    tag = getattr(getattr(node, "tag", None), "value", None)
+    if tag is not None and tag not in _CORE_TAGS and isinstance(
+            node, (CommentedMap, CommentedSeq)):
+        raise bad_tag(tag)
+    if isinstance(node, dict):
+        out = {}
+        for key in node:
+            if isinstance(key, (dict, list, CommentedMap, CommentedSeq)):
+                raise CaseError(file, _nearest_line(lines, path), path,
+                                "keys must be plain names")
+            k = _plain(key, path, lines, file)
+            try:
+                lines[path + (k,)] = node.lc.key(key)[0] + 1
+            except (KeyError, AttributeError, TypeError):
+                pass  # merged (<<) keys have no line of their own
+            out[k] = _plain(node[key], path + (k,), lines, file)
+        return out
+    if isinstance(node, list):
+        for i in range(len(node)):
+            try:
+                lines[path + (i,)] = node.lc.item(i)[0] + 1
+            except (KeyError, AttributeError, TypeError):
+                pass
+        return [_plain(v, path + (i,), lines, file) for i, v in enumerate(node)]
+    if isinstance(node, bool) or type(node).__name__ == "ScalarBoolean":
+        return bool(node)
+    if isinstance(node, int):
+        return int(node)
+    if isinstance(node, float):
+        return float(node)
+    if isinstance(node, str):
+        return str(node)
+    if isinstance(node, (datetime.date, datetime.datetime)):
+        return node.isoformat()
+    if node is None:
+        return None
+    raise bad_tag("!!binary" if isinstance(node, bytes) else type(node).__name__)
+
+
+def _parse(text: str, file: str) -> tuple[dict, dict]:
+    """YAML text -> (plain dict, {key path: line})."""
+    yaml = YAML(typ="rt")
+    yaml.allow_duplicate_keys = False
+    try:
+        root = yaml.load(text)
+    except MarkedYAMLError as ex:
+        mark = ex.problem_mark or ex.context_mark
+        line = mark.line + 1 if mark is not None else None
+        what = ex.problem or ex.context or "invalid YAML"
+        if "duplicate key" in what:
+            what = what.split(" with value")[0]
+        raise CaseError(file, line, (), f"YAML error: {what}") from None
+    except YAMLError as ex:
+        mark = getattr(ex, "problem_mark", None) or getattr(ex, "mark", None)
+        line = mark.line + 1 if getattr(mark, "line", None) is not None else None
+        position = getattr(ex, "position", None)  # ReaderError: bad character
+        if line is None and isinstance(position, int):
+            line = text[:position].count("\n") + 1
+        msg = str(ex).splitlines()[0] if str(ex) else type(ex).__name__
+        raise CaseError(file, line, (), f"YAML error: {msg}") from None
+    if root is None:
+        raise CaseError(file, 1, (), "the case file is empty")
+    lines: dict = {}
+    if isinstance(root, (CommentedMap, CommentedSeq)):
+        lines[()] = root.lc.line + 1
+    if not isinstance(root, dict):
+        raise CaseError(file, lines.get((), 1), (),
+                        f"the top level must be a mapping of keys (got {_show(root)})")
+    return _plain(root, (), lines, file), lines
+
+
+# ------------------------------------------------------------- validation ---
+
+def _message(err: dict) -> str:
+    """A pydantic error dict -> a message in the case file's terms."""
+    kind, ctx, got = err["type"], err.get("ctx") or {}, _show(err.get("input"))
+    bound = {"greater_than": ">", "greater_than_equal": ">=",
+             "less_than": "<", "less_than_equal": "<="}
+    if kind in bound:
+        limit = next(iter(ctx.values()))
+        return f"must be {bound[kind]} {limit:g} (got {got})"
+    if kind == "literal_error":
+        options = re.findall(r"'([^']*)'", ctx.get("expected", ""))
+        return f"must be one of {', '.join(options)} (got {got})"
+    simple = {
+        "missing": "required key missing",
+        "float_type": f"expected a number (got {got})",
+        "int_type": f"expected an integer (got {got})",
+        "string_type": f"expected a string (got {got})",
+        "bool_type": f"expected true or false (got {got})",
+        "list_type": f"expected a list (got {got})",
+        "dict_type": f"expected a mapping of keys (got {got})",
+        "model_type": f"expected a mapping of keys (got {got})",
+        "model_attributes_type": f"expected a mapping of keys (got {got})",
+        "finite_number": f"must be a finite number (got {got})",
+        "string_too_short": "must not be empty",
+        "too_short": f"expected at least {ctx.get('min_length')} item(s) "
+                     f"(got {ctx.get('actual_length')})",
+        "too_long": f"expected at most {ctx.get('max_length')} item(s) "
+                    f"(got {ctx.get('actual_length')})",
+    }
+    # "case", "form" and "unknown_key" errors carry the user's message already
+    return simple.get(kind, err["msg"])
+
+
+def _schema_errors(ex: ValidationError, file: str, lines: dict) -> list[CaseError]:
+    out = []
+    for err in ex.errors():
+        loc = [p for p in err["loc"] if not (isinstance(p, str) and p in _TAGS)]
+        message = _message(err)
+        if loc and loc[-1] == "[key]":      # a bad mapping key: loc[-2] is it
+            loc = loc[:-1]
+            message = f"keys must be strings (got {_show(loc[-1])})"
+        if err["type"] == "unknown_key":
+            loc.append(err["ctx"]["key"])
+        out.append(CaseError(file, _nearest_line(lines, loc), tuple(loc), message))
+    return out
+
+
+def _check(case: Case) -> None:
+    """Rules across fields.  Raises the first CaseError found."""
+    err = case.error
+    groups = set(case.groups) | {"all"}
+
+    def check_box(box, path, strict):
+        for axis, name in enumerate("xyz"):
+            lo, hi = box[0][axis], box[1][axis]
+            if hi < lo or (strict and hi == lo):
+                rel = ">" if strict else ">="
+                raise err(path, f"max must be {rel} min along {name} "
+                                f"(got {_show(lo)} .. {_show(hi)})")
+
+    def check_group(name, path):
+        if name not in groups:
+            raise err(path, f"unknown group {name!r} (defined: "
+                            f"{', '.join(sorted(groups))})")
+
+    def check_history(hist, path):
+        if hist is None:
+            return
+        for i in range(1, len(hist)):
+            if hist[i][0] <= hist[i - 1][0]:
+                raise err(path + (i,), "history times must increase "
+                          f"(got {_show(hist[i][0])} after {_show(hist[i - 1][0])})")
+
+    def check_only(obj, keys, path, why):
+        for key in keys:
+            if obj.given(key):
+                raise err(path + (key,), f"not used {why}")
+
+    check_box(case.domain.box, ("domain", "box"), strict=True)
+    (x0, y0, z0), (x1, y1, z1) = case.domain.box
+    volume = (x1 - x0) * (y1 - y0) * (z1 - z0)
+
+    m = case.mesh
+    if m.kind == "voronoi":
+        if m.size is None:
+            raise err(("mesh", "size"), "required key missing (kind voronoi)")
+        check_only(m, ["divisions"], ("mesh",), "with kind voronoi")
+        cells = volume / m.size ** 3
+        if cells > MAX_CELLS:
+            raise err(("mesh", "size"), f"too small: {cells:.3g} cells "
+                      f"(at most {MAX_CELLS:g}; check the units)")
+    else:
+        if m.divisions is None:
+            raise err(("mesh", "divisions"), "required key missing (kind blocks)")
+        check_only(m, ["size", "seed", "min_spacing"], ("mesh",), "with kind blocks")
+        cells = math.prod(m.divisions)
+        if cells > MAX_CELLS:
+            raise err(("mesh", "divisions"), f"too many cells: {cells} "
+                      f"(at most {MAX_CELLS:g})")
+
+    if not case.materials:
+        raise err(("materials",), "at least one material is required")
+    for name, mat in case.materials.items():
+        path = ("materials", name)
+        y = mat.yield_
+        if y is not None:
+            yp = path + ("yield",)
+            if y.criterion == "mohr_coulomb":
+                for key in ("cohesion", "friction_angle"):
+                    if getattr(y, key) is None:
+                        raise err(yp + (key,), "required key missing "
+                                  "(criterion mohr_coulomb needs cohesion and friction_angle)")
+                check_only(y, ["stress"], yp, "with criterion mohr_coulomb")
+            else:
+                if y.stress is None:
+                    raise err(yp + ("stress",), "required key missing "
+                              f"(criterion {y.criterion})")
+                check_only(y, ["cohesion", "friction_angle"], yp,
+                           f"with criterion {y.criterion} (only mohr_coulomb)")
+        r = mat.rupture
+        if r is not None:
+            rp = path + ("rupture",)
+            energy = r.fracture_energy is not None or r.tensile_strength is not None
+            if r.strain is not None and energy:
+                raise err(rp, "give either strain or (fracture_energy and "
+                              "tensile_strength), not both")
+            if r.strain is None:
+                for key in ("fracture_energy", "tensile_strength"):
+                    if getattr(r, key) is None:
+                        raise err(rp + (key,), "required key missing (rupture "
+                                  "needs strain or fracture_energy and tensile_strength)")
+
+    for name, g in case.groups.items():
+        path = ("groups", name)
+        if name == "all":
+            raise err(path, "the group name 'all' is reserved (it selects every body)")
+        check_box(g.box, path + ("box",), strict=False)
+        if g.material is not None and g.material not in case.materials:
+            raise err(path + ("material",), f"unknown material {g.material!r} "
+                      f"(defined: {', '.join(case.materials)})")
+
+    for i, b in enumerate(case.boundary):
+        path = ("boundary", i)
+        if not isinstance(b, FaceSupport):
+            check_group(b.group, path + ("group",))
+        if isinstance(b, (FaceSupport, GroupFix)):
+            if not b.fix:
+                raise err(path + ("fix",), "must not be empty")
+            for j, c in enumerate(b.fix):
+                if c in b.fix[:j]:
+                    raise err(path + ("fix", j), f"component {c} listed twice")
+        else:
+            key = "velocity" if isinstance(b, GroupVelocity) else "displacement"
+            if all(v is None for v in getattr(b, key)):
+                raise err(path + (key,), "all components are null (nothing prescribed)")
+            check_history(b.history, path + ("history",))
+
+    for i, item in enumerate(case.initial):
+        path = ("initial", i)
+        if not (item.given("velocity") or item.given("angular_velocity")):
+            raise err(path, "required key missing: velocity or angular_velocity")
+        check_group(item.group, path + ("group",))
+
+    gravity = 0
+    for i, load in enumerate(case.loads):
+        path = ("loads", i)
+        if isinstance(load, Gravity):
+            gravity += 1
+            if gravity > 1:
+                raise err(path, "gravity given twice")
+            continue
+        check_group(load.group, path + ("group",))
+        if not (load.given("force") or load.given("moment")):
+            raise err(path, "required key missing: force or moment")
+        check_history(load.history, path + ("history",))
+
+    for i, cut in enumerate(case.cuts):
+        path = ("cuts", i)
+        if not any(cut.normal):
+            raise err(path + ("normal",), "must not be the zero vector")
+        check_box(cut.within, path + ("within",), strict=False)
+
+    s = case.solver
+    if s.mode == "dynamic":
+        if s.end_time is None:
+            raise err(("solver", "end_time"), "required key missing (mode dynamic)")
+        check_only(s, STATIC_KEYS, ("solver",), "in mode dynamic")
+    else:
+        check_only(s, DYNAMIC_KEYS, ("solver",), f"in mode {s.mode}")
+        if s.mode != "static":
+            check_only(s, STATIC_KEYS, ("solver",), f"in mode {s.mode}")
+
+    out = case.output
+    if out.interval is not None:
+        if s.mode != "dynamic":
+            raise err(("output", "interval"), "used only in mode dynamic")
+        if out.interval > s.end_time:
+            raise err(("output", "interval"), f"must be <= solver.end_time "
+                      f"(got {_show(out.interval)} > {_show(s.end_time)})")
+    for j, f in enumerate(out.fields):
+        if f in out.fields[:j]:
+            raise err(("output", "fields", j), f"{f} listed twice")
+    if out.file is not None and not out.file.strip():
+        raise err(("output", "file"), "must not be empty")
+    for name, probe in out.probes.items():
+        check_group(probe.group, ("output", "probes", name, "group"))
+
+
+# -------------------------------------------------------------- public API ---
+
+def load_case_text(text: str | bytes, filename: str = "<string>") -> Case:
+    """Validate the YAML ``text`` of a case; ``filename`` is used in errors."""
+    if isinstance(text, bytes):
+        try:
+            text = text.decode("utf-8-sig")
+        except UnicodeDecodeError as ex:
+            line = text[:ex.start].count(b"\n") + 1
+            raise CaseError(filename, line, (),
+                            f"not UTF-8 text (byte 0x{text[ex.start]:02x})") from None
+    data, lines = _parse(text, filename)
+    try:
+        case = Case.model_validate(data)
+    except ValidationError as ex:
+        errors = _schema_errors(ex, filename, lines)
+        first = min(errors, key=lambda e: e.line if e.line is not None else 1 << 30)
+        first.others = errors
+        raise first from None
+    case._source_text = text
+    case._source_file = filename
+    case._lines = lines
+    case._input_units = case.units
+    _check(case)
+
+    _to_si(case, UNIT_FACTORS[case.units])
+    case.units = "SI"
+    if case.output.file is None:
+        case.output.file = f"{case.name}.h5"
+    if case.solver.mode == "dynamic" and case.output.interval is None:
+        case.output.interval = case.solver.end_time / 100
+    return case
+
+
+def load_case(path: str | Path) -> Case:
+    """Read and validate a case file.  Raises CaseError (never a traceback
+    the user must read): unreadable file, bad YAML, bad schema, bad values."""
+    path = Path(path)
+    try:
+        raw = path.read_bytes()
+    except OSError as ex:
+        raise CaseError(str(path), None, (), f"cannot read the file "
+                        f"({ex.strerror or ex})") from None
+    return load_case_text(raw, str(path))

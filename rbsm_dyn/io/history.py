@@ -1,0 +1,580 @@
+"""HDF5 run history in the H5MD 1.1 layout (DESIGN.md section 4).
+
+Writer
+------
+::
+
+    with HistoryWriter("run.h5", creator_version="0.1.0",
+                       parameters={"case_yaml": text, "case": resolved_dict}) as w:
+        w.write_static("particles/bodies/mass", mass, "kg")          # (N,)
+        w.write_static("connectivity/springs", pairs, "1")           # (S, 2)
+        w.add_series("particles/bodies/position", (N, 3), "f8", "m")
+        w.add_series("observables/kinetic", (), "f8", "J")
+        w.start()                      # optional: SWMR starts; no new datasets after it
+        for ...:
+            w.append_frame(step, t, {"particles/bodies/position": x,
+                                     "observables/kinetic": ek})
+    # leaving the block closes the file: status "completed", or
+    # "failed: <exception>" when the block raised
+
+The file is written in HDF5 SWMR mode (single writer, multiple readers), so
+other processes (and the writing process itself) can open it while the run
+is going.  SWMR forbids creating datasets once it has started: every
+``write_static`` and ``add_series`` must come before :meth:`HistoryWriter.start`
+(which the first :meth:`HistoryWriter.append_frame` calls if needed).
+
+Each frame is written to every series, flushed, and only then counted in the
+root attribute ``frames`` (flushed again).  A reader that keeps to ``frames``
+rows -- :func:`open_history` does -- never sees a half-written frame, and a
+run killed at any moment (even SIGKILL) leaves a readable file.
+
+Reader
+------
+:func:`open_history` reads the whole file into NumPy arrays truncated to
+``frames`` rows; see :class:`History` and docs/history.md.
+"""
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from typing import Any, Mapping
+
+import h5py
+import numpy as np
+
+__all__ = ["HistoryWriter", "History", "open_history", "H5MD_VERSION"]
+
+H5MD_VERSION = (1, 1)
+_UNITS_MODULE_VERSION = (1, 0)
+_RESERVED = ("h5md", "parameters")
+_CHUNK_TARGET_BYTES = 1 << 20      # about 1 MiB of value data per chunk ...
+_CHUNK_MAX_FRAMES = 1024           # ... but no more than this many frames
+_STEP_TIME_CHUNK = 1024            # frames per chunk of step/time (8 KiB)
+_MAX_CHUNK_BYTES = 1 << 30         # HDF5 refuses chunks of 4 GiB or more
+
+
+def _norm_path(path: str) -> str:
+    if not isinstance(path, str):
+        raise TypeError(f"path in file must be a str, got {type(path).__name__}")
+    p = path.strip("/")
+    parts = p.split("/")
+    if not p or any(part in ("", ".", "..") for part in parts):
+        raise ValueError(f"invalid path in file: {path!r}")
+    if parts[0] in _RESERVED:
+        raise ValueError(f"path {path!r} is reserved (/{parts[0]} is written by HistoryWriter)")
+    return p
+
+
+def _chunks(tail_shape: tuple[int, ...], itemsize: int) -> tuple[int, ...]:
+    """Chunk shape for a (None, *tail_shape) dataset.
+
+    About 1 MiB per chunk (at most _CHUNK_MAX_FRAMES frames, at least one
+    frame): whole frames per chunk, so appending a frame touches one chunk.
+    Only if a single frame exceeds 1 GiB is the frame split (along its first
+    axes) -- HDF5 chunks must stay below 4 GiB.
+    """
+    tail = [max(1, int(d)) for d in tail_shape]
+    frame_bytes = itemsize * math.prod(tail)
+    rows = max(1, min(_CHUNK_MAX_FRAMES, _CHUNK_TARGET_BYTES // max(1, frame_bytes)))
+    for i in range(len(tail)):
+        if itemsize * math.prod(tail) <= _MAX_CHUNK_BYTES:
+            break
+        rest = itemsize * math.prod(tail[i + 1:])
+        tail[i] = max(1, min(tail[i], _MAX_CHUNK_BYTES // max(1, rest)))
+    return (rows, *tail)
+
+
+def _param_text(value: Any) -> str:
+    if isinstance(value, str):
+        return value
+    if isinstance(value, bytes):
+        return value.decode("utf-8")
+    return json.dumps(value, ensure_ascii=False, indent=1, default=str)
+
+
+@dataclass
+class _Series:
+    path: str
+    tail_shape: tuple[int, ...]
+    dtype: np.dtype
+    value: h5py.Dataset
+    step: h5py.Dataset
+    time: h5py.Dataset
+
+
+class HistoryWriter:
+    """Write an H5MD 1.1 history file (see the module docstring).
+
+    Parameters
+    ----------
+    path : file to create (an existing file is overwritten).
+    creator, creator_version : written to ``/h5md/creator`` (attributes
+        ``name`` and ``version``); ``creator_version`` defaults to
+        ``rbsm_dyn.__version__``.  ``version=`` is accepted as an alias.
+    author : ``/h5md/author`` attribute ``name``.
+    parameters : ``{name: str | dict | list | number}``; each becomes the
+        string dataset ``/parameters/<name>`` (non-strings as JSON text).
+    swmr : write in SWMR mode (default).  Only turn it off on file systems
+        without POSIX write ordering (some network file systems); readers in
+        other processes then cannot open the file until it is closed.
+    """
+
+    def __init__(self, path, *, creator: str = "rbsm_dyn",
+                 creator_version: str | None = None,
+                 author: str = "rbsm_dyn user",
+                 parameters: Mapping[str, Any] | None = None,
+                 swmr: bool = True, version: str | None = None):
+        if creator_version is None:
+            creator_version = version
+        if creator_version is None:
+            from rbsm_dyn import __version__ as creator_version
+        self.path = str(path)
+        self._swmr = bool(swmr)
+        self._series: dict[str, _Series] = {}
+        self._frames = 0
+        self._started = False
+        self._status = "running"
+        # libver="latest" is required for SWMR; a larger chunk cache keeps a
+        # ~1 MiB chunk in memory between appends.
+        self._f = h5py.File(self.path, "w", libver="latest", rdcc_nbytes=4 << 20)
+        try:
+            f = self._f
+            h5md = f.create_group("h5md")
+            h5md.attrs["version"] = np.array(H5MD_VERSION, dtype=np.int32)
+            f.create_group("h5md/author").attrs["name"] = str(author)
+            cr = f.create_group("h5md/creator")
+            cr.attrs["name"] = str(creator)
+            cr.attrs["version"] = str(creator_version)
+            units = f.create_group("h5md/modules/units")
+            units.attrs["version"] = np.array(_UNITS_MODULE_VERSION, dtype=np.int32)
+            units.attrs["system"] = "SI"
+            pg = f.create_group("parameters")
+            for name, value in (parameters or {}).items():
+                if not isinstance(name, str) or not name or "/" in name:
+                    raise ValueError(f"invalid parameter name {name!r}")
+                pg.create_dataset(name, data=_param_text(value),
+                                  dtype=h5py.string_dtype("utf-8"))
+            f.attrs["frames"] = np.int64(0)
+            f.attrs["status"] = self._status
+            f.attrs["swmr"] = np.int8(self._swmr)
+            f.flush()
+        except BaseException:
+            self._f.close()
+            raise
+
+    # ------------------------------------------------------------------ state
+    @property
+    def frames(self) -> int:
+        """Number of complete frames written so far."""
+        return self._frames
+
+    @property
+    def started(self) -> bool:
+        return self._started
+
+    @property
+    def closed(self) -> bool:
+        return self._f is None or not self._f.id.valid
+
+    @property
+    def status(self) -> str:
+        return self._status
+
+    @property
+    def series_paths(self) -> list[str]:
+        return list(self._series)
+
+    def _file(self) -> h5py.File:
+        if self.closed:
+            raise RuntimeError(f"history file {self.path} is closed")
+        return self._f
+
+    def _check_can_create(self, what: str) -> h5py.File:
+        f = self._file()
+        if self._started:
+            raise RuntimeError(
+                f"cannot {what} after start() / the first append_frame(): "
+                "HDF5 SWMR mode forbids creating datasets; create every static "
+                "dataset and series first")
+        return f
+
+    def _ensure_particle_box(self, path: str) -> None:
+        # H5MD requires a `box` group in every particles group.
+        parts = path.split("/")
+        if parts[0] == "particles" and len(parts) >= 3:
+            g = self._f.require_group("/".join(parts[:2]))
+            if "box" not in g:
+                box = g.create_group("box")
+                box.attrs["dimension"] = np.int32(3)
+                box.attrs["boundary"] = np.array(["none"] * 3, dtype=h5py.string_dtype())
+
+    # --------------------------------------------------------------- creation
+    def write_static(self, path_in_file: str, array, unit: str) -> h5py.Dataset:
+        """Write a time-independent dataset with attribute ``unit`` ("1" if
+        dimensionless).  Only before :meth:`start`."""
+        f = self._check_can_create("write_static")
+        p = _norm_path(path_in_file)
+        if p in f:
+            raise ValueError(f"/{p} already exists in {self.path}")
+        arr = np.asarray(array)
+        self._ensure_particle_box(p)
+        if arr.dtype.kind in "UO":
+            ds = f.create_dataset(p, data=arr.astype(str).astype(object),
+                                  dtype=h5py.string_dtype("utf-8"))
+        else:
+            ds = f.create_dataset(p, data=arr)
+        ds.attrs["unit"] = str(unit)
+        return ds
+
+    def add_series(self, path_in_file: str, tail_shape, dtype, unit: str) -> None:
+        """Create an H5MD time-dependent element ``<path>/{step,time,value}``
+        with ``value`` of shape (0, *tail_shape).  Only before :meth:`start`."""
+        f = self._check_can_create("add_series")
+        p = _norm_path(path_in_file)
+        if p in f:
+            raise ValueError(f"/{p} already exists in {self.path}")
+        if isinstance(tail_shape, (int, np.integer)):
+            tail_shape = (int(tail_shape),)
+        tail = tuple(int(d) for d in tail_shape)
+        if any(d < 0 for d in tail):
+            raise ValueError(f"negative dimension in tail_shape {tail} for {p}")
+        dt = np.dtype(dtype)
+        if dt.kind in "UOSV":
+            raise TypeError(f"series {p}: dtype {dt} not supported (numbers and bool only)")
+        self._ensure_particle_box(p)
+        g = f.create_group(p)
+        step = g.create_dataset("step", shape=(0,), maxshape=(None,), dtype=np.int64,
+                                chunks=(_STEP_TIME_CHUNK,))
+        step.attrs["unit"] = "1"
+        time = g.create_dataset("time", shape=(0,), maxshape=(None,), dtype=np.float64,
+                                chunks=(_STEP_TIME_CHUNK,))
+        time.attrs["unit"] = "s"
+        # A zero-length axis cannot have a fixed maximum with a positive chunk
+        # size; leave it unlimited (it stays 0).
+        maxshape = (None, *(d if d > 0 else None for d in tail))
+        value = g.create_dataset("value", shape=(0, *tail), maxshape=maxshape, dtype=dt,
+                                 chunks=_chunks(tail, dt.itemsize))
+        value.attrs["unit"] = str(unit)
+        self._series[p] = _Series(p, tail, dt, value, step, time)
+
+    def start(self) -> None:
+        """End the set-up phase: switch to SWMR mode (readers may now open the
+        file concurrently).  No dataset can be added afterwards.  Idempotent;
+        called by the first :meth:`append_frame`."""
+        f = self._file()
+        if self._started:
+            return
+        f.flush()
+        if self._swmr:
+            f.swmr_mode = True
+        self._started = True
+
+    # ---------------------------------------------------------------- frames
+    def append_frame(self, step: int, time: float, values: Mapping[str, Any]) -> int:
+        """Append one frame to every series, flush, then count it.
+
+        ``values`` maps each series path (as given to :meth:`add_series`) to
+        an array of its tail shape.  Every series must be present and no other
+        key; shapes are checked before anything is written.  Returns the new
+        number of frames.
+        """
+        f = self._file()
+        if not self._started:
+            self.start()
+        given = {_norm_path(k): v for k, v in values.items()}
+        missing = [p for p in self._series if p not in given]
+        if missing:
+            raise KeyError(f"append_frame: no value for series {missing}")
+        unknown = [p for p in given if p not in self._series]
+        if unknown:
+            raise KeyError(f"append_frame: {unknown} not added with add_series "
+                           f"(series: {list(self._series)})")
+        arrays = {}
+        for p, s in self._series.items():
+            a = np.asarray(given[p])
+            if a.shape != s.tail_shape:
+                raise ValueError(f"append_frame: {p} has shape {a.shape}, "
+                                 f"expected {s.tail_shape}")
+            arrays[p] = a.astype(s.dtype, copy=False)
+        n = self._frames
+        for p, s in self._series.items():
+            for ds in (s.step, s.time, s.value):
+                if ds.shape[0] != n + 1:
+                    ds.resize(n + 1, axis=0)
+            s.step[n] = int(step)
+            s.time[n] = float(time)
+            s.value[n] = arrays[p]
+        f.flush()                          # the frame is on disk ...
+        f.attrs.modify("frames", np.int64(n + 1))
+        f.flush()                          # ... and only then counted
+        self._frames = n + 1
+        return self._frames
+
+    # --------------------------------------------------------------- status
+    def _set_status(self, status: str) -> None:
+        f = self._file()
+        f.attrs.modify("status", status)
+        f.flush()
+        self._status = status
+
+    def mark_failed(self, message: str) -> None:
+        """Set the root attribute ``status`` to ``"failed: <message>"`` and
+        flush.  The data written so far stays readable; close() keeps it."""
+        self._set_status(f"failed: {message}")
+
+    def close(self) -> None:
+        """Set status "completed" (unless marked failed) and close. Idempotent."""
+        if self.closed:
+            return
+        try:
+            if self._status == "running":
+                self._set_status("completed")
+            else:
+                self._f.flush()
+        finally:
+            self._f.close()
+
+    def __enter__(self) -> "HistoryWriter":
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        try:
+            if exc_type is not None and not self.closed and self._status == "running":
+                self.mark_failed(f"{exc_type.__name__}: {exc}")
+        finally:
+            self.close()
+
+
+# ====================================================================== reader
+def _read_dataset(ds: h5py.Dataset) -> Any:
+    if h5py.check_string_dtype(ds.dtype) is not None:
+        out = ds.asstr()[()]
+        return out if isinstance(out, str) else np.asarray(out, dtype=object)
+    return ds[()]
+
+
+def _attr_str(obj, name: str, default=None):
+    if name not in obj.attrs:
+        return default
+    v = obj.attrs[name]
+    if isinstance(v, np.ndarray) and v.shape == ():
+        v = v[()]
+    if isinstance(v, bytes):
+        return v.decode("utf-8")
+    return str(v)
+
+
+def _read_step_time(g: h5py.Group, name: str, n: int):
+    """H5MD step/time: a dataset (one entry per frame) or a scalar (fixed
+    interval, optional attribute ``offset``)."""
+    if name not in g:
+        return None
+    ds = g[name]
+    if ds.shape == ():
+        inc = ds[()]
+        off = ds.attrs.get("offset", 0)
+        return off + inc * np.arange(n)
+    return ds[:n]
+
+
+class History:
+    """An rbsm_dyn history read into memory (see :func:`open_history`).
+
+    Attributes
+    ----------
+    frames : number of complete frames T (root attribute ``frames``).
+    step (T,) int64, time (T,) float64 [s] : of the frames.
+    series : {path: value (T, ...)} for every time-dependent element.
+    series_step, series_time : {path: (T,)} step and time of each series.
+    static : {path: array} for every time-independent dataset.
+    units : {path: unit string} for series values and static datasets.
+    parameters : {name: str} the ``/parameters`` strings (JSON left as text;
+        see :meth:`parameter_json`).
+    observables : {name: (T,)} the series under ``observables/``;
+        observable_time : {name: time} only for observables whose time
+        differs from ``time``.
+    status : "running" (run going or killed), "completed" or "failed: ...".
+    h5md_version, creator, creator_version, author.
+    """
+
+    BODIES = "particles/bodies"
+
+    def __init__(self, path: str):
+        self.path = str(path)
+        self.frames = 0
+        self.step = np.zeros(0, dtype=np.int64)
+        self.time = np.zeros(0, dtype=np.float64)
+        self.series: dict[str, np.ndarray] = {}
+        self.series_step: dict[str, np.ndarray] = {}
+        self.series_time: dict[str, np.ndarray] = {}
+        self.static: dict[str, Any] = {}
+        self.units: dict[str, str] = {}
+        self.parameters: dict[str, str] = {}
+        self.status: str | None = None
+        self.h5md_version: tuple[int, ...] | None = None
+        self.creator = self.creator_version = self.author = None
+        self.observables: dict[str, np.ndarray] = {}
+        self.observable_time: dict[str, np.ndarray] = {}
+
+    # convenience -------------------------------------------------------
+    def _body(self, name: str):
+        return self.series.get(f"{self.BODIES}/{name}")
+
+    @property
+    def position(self):
+        """(T, N, 3) [m] body centroids, or None."""
+        return self._body("position")
+
+    @property
+    def orientation(self):
+        """(T, N, 4) unit quaternions, scalar first (w, x, y, z), or None."""
+        return self._body("orientation")
+
+    @property
+    def velocity(self):
+        return self._body("velocity")
+
+    @property
+    def angular_velocity(self):
+        return self._body("angular_velocity")
+
+    @property
+    def displacement(self):
+        """position - position at frame 0, (T, N, 3); None without positions."""
+        x = self.position
+        if x is None:
+            return None
+        if len(x) == 0:
+            return np.zeros_like(x)
+        return x - x[0]
+
+    def parameter_json(self, name: str) -> Any:
+        """``/parameters/<name>`` parsed as JSON."""
+        return json.loads(self.parameters[name])
+
+    def __getitem__(self, path: str):
+        p = path.strip("/")
+        if p in self.series:
+            return self.series[p]
+        if p in self.static:
+            return self.static[p]
+        raise KeyError(path)
+
+    def __contains__(self, path: str) -> bool:
+        p = path.strip("/")
+        return p in self.series or p in self.static
+
+    def close(self) -> None:
+        """Nothing to release (everything is in memory); for symmetry."""
+
+    def __enter__(self) -> "History":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def __repr__(self) -> str:
+        return (f"History({self.path!r}, frames={self.frames}, status={self.status!r}, "
+                f"series={sorted(self.series)}, static={sorted(self.static)})")
+
+
+def _open_h5(path: str) -> h5py.File:
+    # SWMR read works for SWMR and ordinary files alike and is required for a
+    # file whose SWMR writer is running or was killed; fall back to a plain
+    # read-only open (e.g. the file is open, non-SWMR, in this same process).
+    try:
+        return h5py.File(path, "r", swmr=True)
+    except OSError as swmr_err:
+        try:
+            return h5py.File(path, "r")
+        except OSError:
+            raise swmr_err from None
+
+
+def open_history(path) -> History:
+    """Open a history file read-only and read it into memory.
+
+    Everything time-dependent is truncated to the root attribute ``frames``
+    (the number of complete frames), so a file being written or left by a
+    killed run gives consistent arrays.  Files without ``frames`` (other H5MD
+    writers) use the shortest series.
+    """
+    h = History(path)
+    with _open_h5(str(path)) as f:
+        frames_attr = f.attrs.get("frames")
+        h.status = _attr_str(f, "status")
+        if "h5md" in f:
+            g = f["h5md"]
+            if "version" in g.attrs:
+                h.h5md_version = tuple(int(v) for v in np.ravel(g.attrs["version"]))
+            if "creator" in g:
+                h.creator = _attr_str(g["creator"], "name")
+                h.creator_version = _attr_str(g["creator"], "version")
+            if "author" in g:
+                h.author = _attr_str(g["author"], "name")
+        if "parameters" in f:
+            for name, ds in f["parameters"].items():
+                if isinstance(ds, h5py.Dataset):
+                    v = _read_dataset(ds)
+                    h.parameters[name] = v if isinstance(v, str) else json.dumps(
+                        v.tolist() if isinstance(v, np.ndarray) else v)
+
+        # discover elements ---------------------------------------------
+        series_groups: dict[str, h5py.Group] = {}
+        static_ds: dict[str, h5py.Dataset] = {}
+
+        def visit(name: str, obj) -> None:
+            top = name.split("/", 1)[0]
+            if top in _RESERVED:
+                return
+            if isinstance(obj, h5py.Group):
+                if isinstance(obj.get("value"), h5py.Dataset) and "step" in obj:
+                    series_groups[name] = obj
+            elif isinstance(obj, h5py.Dataset):
+                static_ds[name] = obj
+
+        f.visititems(visit)
+        for sp in series_groups:
+            for k in [k for k in static_ds if k.startswith(sp + "/")]:
+                del static_ds[k]
+
+        lengths = {p: g["value"].shape[0] for p, g in series_groups.items()}
+        if frames_attr is not None:
+            T = int(frames_attr)
+        else:
+            T = min(lengths.values()) if lengths else 0
+        h.frames = T
+
+        for p, g in sorted(series_groups.items()):
+            n = min(T, lengths[p])
+            value = g["value"][:n]
+            h.series[p] = value
+            h.units[p] = _attr_str(g["value"], "unit", "1")
+            st = _read_step_time(g, "step", n)
+            tm = _read_step_time(g, "time", n)
+            h.series_step[p] = np.asarray(st if st is not None else np.arange(n), np.int64)
+            h.series_time[p] = np.asarray(tm if tm is not None else np.full(n, np.nan),
+                                          np.float64)
+        for p, ds in sorted(static_ds.items()):
+            h.static[p] = _read_dataset(ds)
+            if "unit" in ds.attrs:
+                h.units[p] = _attr_str(ds, "unit")
+
+    # frame step/time: from the positions if any, else any full-length series
+    if f"{History.BODIES}/position" in h.series and \
+            len(h.series[f"{History.BODIES}/position"]) == h.frames:
+        ref = f"{History.BODIES}/position"
+    else:
+        ref = next((p for p in h.series if len(h.series[p]) == h.frames), None)
+    if ref is not None:
+        h.step = h.series_step[ref]
+        h.time = h.series_time[ref]
+    for p, v in h.series.items():
+        if p.startswith("observables/"):
+            name = p[len("observables/"):]
+            h.observables[name] = v
+            t = h.series_time[p]
+            if t.shape != h.time.shape or not np.array_equal(t, h.time):
+                h.observable_time[name] = t
+    return h

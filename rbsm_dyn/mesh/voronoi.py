@@ -1,0 +1,263 @@
+"""Random Voronoi tessellation of a box, clipped exactly to the box.
+
+Seeds
+    ``round(volume / size³)`` points (at least 1), uniform in the box with a
+    minimum mutual distance ``min_spacing · size`` (random sequential
+    addition, "dart throwing", vectorised in batches with a k-d tree: a
+    candidate is rejected if it is closer than the spacing to an accepted
+    seed or to an earlier candidate of its batch).  Reproducible from
+    ``seed`` (numpy ``default_rng``).  ``scipy.stats.qmc.PoissonDisk`` is not
+    used: it grows its sample outward from one point, so stopping it at the
+    wanted count leaves part of the box empty, and filling the box first
+    needs several times the wanted count.  The seeds are then put in Morton
+    (Z-curve) order of a grid of spacing ``size``, so that cells close in
+    space are close in memory (cache locality of the kernels).
+
+Clipping
+    The seeds are mirrored across the box sides and ``scipy.spatial.Voronoi``
+    runs on seeds + mirrors.  A point of the box is never strictly closer to
+    a mirror than to its original, and a point outside side k is closer to
+    the mirror across k than to the original, so the Voronoi cell of an
+    original seed is exactly its Voronoi cell among the seeds clipped to the
+    box.  Ridges between two seeds are internal faces; a ridge between a
+    seed and its own mirror across side k is a boundary face on side k; a
+    ridge between a seed and another seed's mirror lies on the side plane
+    and has no area (dropped).  Only the seeds within a few ``size`` of a
+    side are mirrored across it; if any cell is then not closed inside the
+    box, the tessellation is redone with all mirrors (exact in every case).
+
+Clean-up
+    Vertices of a boundary face are put exactly on its side plane, and any
+    vertex within 1e-10·size of a side plane is snapped onto it.  Voronoi
+    vertices closer than 1e-10·size to each other (near-degenerate seed
+    configurations) are merged.  Face polygons are ordered by angle about
+    their normal; polygons left with fewer than 3 vertices or with an area
+    below 1e-16·size² are dropped (their area is round-off).
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial import Voronoi, cKDTree
+
+from ._core import Mesh, _gather, assemble, check_box
+from .spring_points import polygon_properties
+
+__all__ = ["voronoi_mesh", "voronoi_seeds"]
+
+
+def _morton_order(points, lo, h):
+    """Argsort of points along a Z-order curve on a grid of spacing h."""
+    q = np.floor((points - lo) / h).astype(np.int64)
+    q = np.clip(q, 0, (1 << 21) - 1)
+    key = np.zeros(len(points), dtype=np.int64)
+    for bit in range(21):
+        for a in range(3):
+            key |= ((q[:, a] >> bit) & 1) << (3 * bit + a)
+    return np.argsort(key, kind="stable")
+
+
+def voronoi_seeds(box, size, seed=0, min_spacing=0.5, n=None):
+    """The seed points used by ``voronoi_mesh`` (Morton-ordered), shape (N, 3).
+
+    N = ``n`` if given, else max(1, round(volume / size³)).  Any two seeds are
+    at least ``min_spacing * size`` apart.
+    """
+    box = check_box(box)
+    if not size > 0:
+        raise ValueError(f"size must be positive, got {size!r}")
+    if not 0 <= min_spacing < 1.0:
+        raise ValueError(f"min_spacing must be in [0, 1), got {min_spacing!r}")
+    lo, hi = box
+    vol = float(np.prod(hi - lo))
+    N = max(1, int(round(vol / size**3))) if n is None else int(n)
+    r = float(min_spacing) * size
+    rng = np.random.default_rng(seed)
+    acc = np.empty((0, 3))
+    tries = 0
+    while len(acc) < N:
+        need = N - len(acc)
+        cand = rng.uniform(lo, hi, size=(max(2 * need, 64), 3))
+        if r > 0:
+            if len(acc):
+                d, _ = cKDTree(acc).query(cand, k=1, distance_upper_bound=r)
+                cand = cand[d >= r]
+            pairs = cKDTree(cand).query_pairs(r, output_type="ndarray")
+            if len(pairs):
+                keep = np.ones(len(cand), dtype=bool)
+                keep[pairs.max(axis=1)] = False  # drop the later of each close pair
+                cand = cand[keep]
+        acc = np.vstack([acc, cand[:need]])
+        tries += 1
+        if tries > 200:
+            raise RuntimeError(
+                f"could not place {N} seeds {r:g} apart in the box (placed {len(acc)}); "
+                "lower min_spacing"
+            )
+    return acc[_morton_order(acc, lo, size)]
+
+
+def _tessellate(seeds, box, size, reach):
+    """Voronoi of seeds + mirrors of the seeds within ``reach`` of each side.
+
+    Returns the raw pieces, or None if some cell is not closed inside the box
+    (then call again with reach = inf)."""
+    N = len(seeds)
+    lo, hi = box
+    pts = [seeds]
+    src = [np.arange(N)]
+    side = [np.full(N, -1)]
+    for k in range(6):
+        a, plane = k // 2, box[k % 2, k // 2]
+        sel = np.flatnonzero(np.abs(seeds[:, a] - plane) < reach)
+        m = seeds[sel].copy()
+        m[:, a] = 2.0 * plane - m[:, a]
+        pts.append(m)
+        src.append(sel)
+        side.append(np.full(len(sel), k))
+    pts = np.vstack(pts)
+    src = np.concatenate(src)
+    side = np.concatenate(side)
+    # Qbb Qc Qz is scipy's default; tiny problems need no special options
+    vor = Voronoi(pts)
+    rp = vor.ridge_points.astype(np.int64)
+    p, q = rp.min(axis=1), rp.max(axis=1)
+    internal = q < N
+    bnd = (p < N) & (q >= N) & (src[q] == p)
+    keep = np.flatnonzero(internal | bnd)
+    rv = vor.ridge_vertices
+    sub = [rv[i] for i in keep]
+    cnt = np.fromiter((len(s) for s in sub), dtype=np.int64, count=len(sub))
+    vid = np.fromiter((v for s in sub for v in s), dtype=np.int64, count=int(cnt.sum()))
+    if np.any(vid < 0):
+        return None  # an unbounded cell: a needed mirror is missing
+    rid = np.repeat(np.arange(len(keep)), cnt)
+    V = np.array(vor.vertices, dtype=np.float64)
+    kp, kq = p[keep], q[keep]
+    kside = np.where(kq < N, -1, side[kq])
+    # vertices of a boundary face lie on its side plane: put them there
+    vb = kside[rid] >= 0
+    V[vid[vb], kside[rid[vb]] // 2] = box[kside[rid[vb]] % 2, kside[rid[vb]] // 2]
+    used = np.unique(vid)
+    tol = 1e-10 * size
+    Vu = V[used]
+    for a in range(3):
+        for s in range(2):
+            near = np.abs(Vu[:, a] - box[s, a]) <= tol
+            Vu[near, a] = box[s, a]
+    if np.any(Vu < lo - tol) or np.any(Vu > hi + tol):
+        return None  # a cell pokes out of the box: a needed mirror is missing
+    V[used] = Vu
+    return V, vid, rid, cnt, kp, kq, kside
+
+
+def voronoi_mesh(box, size, seed=0, min_spacing=0.5, *, seeds=None) -> Mesh:
+    """Voronoi tessellation of ``box`` with cells of mean size ``size``.
+
+    Parameters
+    ----------
+    box : [[xmin, ymin, zmin], [xmax, ymax, zmax]]
+    size : mean cell size; the number of cells is about volume / size³
+    seed : random seed (same seed, same mesh)
+    min_spacing : minimum seed distance as a fraction of ``size``
+    seeds : optional (N, 3) seed points inside the box to use instead of the
+        random ones (``size`` then only sets tolerances)
+
+    Cell i is the Voronoi cell of seed i (``voronoi_seeds(box, size, seed,
+    min_spacing)``), clipped exactly to the box.
+    """
+    box = check_box(box)
+    if not size > 0:
+        raise ValueError(f"size must be positive, got {size!r}")
+    if seeds is None:
+        seeds = voronoi_seeds(box, size, seed, min_spacing)
+    else:
+        seeds = np.asarray(seeds, dtype=np.float64)
+        if seeds.ndim != 2 or seeds.shape[1] != 3 or len(seeds) < 1:
+            raise ValueError("seeds must be an (N, 3) array")
+        if np.any(seeds <= box[0]) or np.any(seeds >= box[1]):
+            raise ValueError("seeds must lie strictly inside the box")
+    N = len(seeds)
+    if N < 2:
+        # a single cell is the box itself
+        from .blocks import block_mesh
+        return block_mesh(box, (1, 1, 1))
+
+    box_volume = float(np.prod(box[1] - box[0]))
+    for reach in (3.0 * size, np.inf):
+        out = _tessellate(seeds, box, size, reach)
+        if out is None:
+            continue
+        mesh = _build(box, size, seeds, *out)
+        if abs(mesh.cell_volume.sum() - box_volume) <= 1e-9 * box_volume and np.all(mesh.cell_volume > 0):
+            return mesh
+    raise RuntimeError("Voronoi tessellation failed to tile the box")
+
+
+def _build(box, size, seeds, V, vid, rid, cnt, kp, kq, kside):
+    N = len(seeds)
+
+    # merge Voronoi vertices closer than tol (near-degenerate seed sets)
+    tol = 1e-10 * size
+    used, inv = np.unique(vid, return_inverse=True)
+    Vu = V[used]
+    pairs = cKDTree(Vu).query_pairs(tol, output_type="ndarray")
+    if len(pairs):
+        from scipy.sparse import coo_matrix
+        from scipy.sparse.csgraph import connected_components
+
+        g = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(Vu), len(Vu)))
+        _, lab = connected_components(g, directed=False)
+        # representative: the member with the most zero coordinates on the box? keep the first
+        rep = np.full(lab.max() + 1, -1, dtype=np.int64)
+        rep[lab[::-1]] = np.arange(len(Vu))[::-1]
+        inv = rep[lab][inv]
+    vid = inv
+    xyz = Vu
+
+    # unique (ridge, vertex) pairs, ordered by angle about the ridge normal
+    R = len(kp)
+    key = np.unique(rid * len(xyz) + vid)
+    rid, vid = key // len(xyz), key % len(xyz)
+    normal = np.empty((R, 3))
+    isb = kside >= 0
+    d = seeds[kq[~isb]] - seeds[kp[~isb]]
+    normal[~isb] = d / np.linalg.norm(d, axis=1)[:, None]
+    normal[isb] = 0.0
+    ax = kside[isb] // 2
+    normal[np.flatnonzero(isb), ax] = np.where(kside[isb] % 2 == 0, -1.0, 1.0)
+    cnt = np.bincount(rid, minlength=R)
+    m = np.stack([np.bincount(rid, xyz[vid, j], minlength=R) for j in range(3)], 1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        m /= cnt[:, None]
+    e1 = np.cross(normal, np.where(np.abs(normal[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]]))
+    e1 /= np.linalg.norm(e1, axis=1)[:, None]
+    e2 = np.cross(normal, e1)
+    rel = xyz[vid] - m[rid]
+    ang = np.arctan2(np.einsum("ij,ij->i", rel, e2[rid]), np.einsum("ij,ij->i", rel, e1[rid]))
+    o = np.lexsort((ang, rid))
+    rid, vid = rid[o], vid[o]
+    ptr = np.zeros(R + 1, dtype=np.int64)
+    np.cumsum(cnt, out=ptr[1:])
+
+    # drop degenerate ridges (fewer than 3 vertices or round-off area)
+    ok = cnt >= 3
+    area = np.zeros(R)
+    sel = np.flatnonzero(ok)
+    sp, sv = _gather(ptr, vid, sel)
+    area[sel], _ = polygon_properties(sp, xyz[sv], normal[sel])
+    ok &= area > 1e-16 * size * size
+    sel = np.flatnonzero(ok)
+    ptr, vid = _gather(ptr, vid, sel)
+    kp, kq, kside, normal = kp[sel], kq[sel], kside[sel], normal[sel]
+    isb = kside >= 0
+
+    fi = np.flatnonzero(~isb)
+    bi = np.flatnonzero(isb)
+    f_ptr, f_vid = _gather(ptr, vid, fi)
+    b_ptr, b_vid = _gather(ptr, vid, bi)
+    return assemble(
+        box, xyz,
+        np.stack([kp[fi], kq[fi]], axis=1), f_ptr, f_vid, normal[fi],
+        kp[bi], kside[bi], b_ptr, b_vid,
+        n_cells=N, ref=seeds,
+    )

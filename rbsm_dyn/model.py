@@ -1,0 +1,443 @@
+"""Model (immutable structure-of-arrays) and State (what changes each step).
+
+Built from a validated Case and its Mesh: bodies with real mass and full
+principal inertia, spring points between neighbouring cells, support springs
+to the ground (body index `n_bodies`), constraints, loads.  Kernels in
+physics/ take these arrays; nothing here is read by a kernel as an object.
+
+Index type: int32 throughout (DESIGN.md §5); state float64.
+"""
+from dataclasses import dataclass, field
+
+import numba as nb
+import numpy as np
+
+from .calibration import stiffness_pair
+from .mesh import block_mesh, principal_axes, spring_points, voronoi_mesh
+from .physics.integrate import DISPLACEMENT, FIXED, VELOCITY, refresh_all_rotations
+from .physics.rotation import matrix_to_quat
+
+IDX = np.int32
+FACES = ("xmin", "xmax", "ymin", "ymax", "zmin", "zmax")
+COMPONENTS = ("x", "y", "z", "rx", "ry", "rz")
+
+
+@dataclass(frozen=True)
+class Model:
+    """Static description of a run.  N bodies, S spring points.
+
+    Bodies (rows 0..N-1; pos0/quat0 have one more row, the ground):
+      body_mass (N,) [kg]; body_inertia (N, 3) principal moments [kg m²];
+      body_volume (N,) [m³]; body_material (N,) int32;
+      body_pos0 (N+1, 3) [m] centroids; body_quat0 (N+1, 4) principal axes.
+    Springs:
+      spring_bodies (S, 2) int32 (a, b), b == N for a support (ground);
+      spring_arm_a, spring_arm_b (S, 3) [m] arms in the principal frames
+      (the ground's frame is the world frame); spring_frame0 (S, 4) quaternion
+      of the reference frame (n, s, t) with n from a to b; spring_k (S, 3)
+      [N/m] = (k_n, k_s, k_t) × area; spring_point, spring_normal (S, 3);
+      spring_area, spring_h (S,) [m², m]; spring_face (S,) int32 (internal
+      face id, or −1 − boundary face id for supports).
+    CSR body -> springs: csr_ptr (N+1,), csr_spring (K,), csr_sign (K,) (+1 a, −1 b).
+    Constraints: dof_kind (N, 6) int8 (0 free, 1 fixed, 2 velocity, 3
+      displacement), dof_value (N, 6), dof_hist (N, 6) int32.
+    Loads: body_fext, body_mext (N, 3) [N, N m], body_load_hist (N,) int32,
+      gravity (3,) [m/s²]; amplitude tables hist_ptr, hist_t, hist_a.
+    """
+    n_bodies: int
+    body_mass: np.ndarray
+    body_inertia: np.ndarray
+    body_volume: np.ndarray
+    body_material: np.ndarray
+    body_pos0: np.ndarray
+    body_quat0: np.ndarray
+    spring_bodies: np.ndarray
+    spring_arm_a: np.ndarray
+    spring_arm_b: np.ndarray
+    spring_frame0: np.ndarray
+    spring_k: np.ndarray
+    spring_point: np.ndarray
+    spring_normal: np.ndarray
+    spring_area: np.ndarray
+    spring_h: np.ndarray
+    spring_face: np.ndarray
+    csr_ptr: np.ndarray
+    csr_spring: np.ndarray
+    csr_sign: np.ndarray
+    dof_kind: np.ndarray
+    dof_value: np.ndarray
+    dof_hist: np.ndarray
+    body_fext: np.ndarray
+    body_mext: np.ndarray
+    body_load_hist: np.ndarray
+    gravity: np.ndarray
+    hist_ptr: np.ndarray
+    hist_t: np.ndarray
+    hist_a: np.ndarray
+    groups: dict
+    materials: list
+    mesh: object = field(repr=False)
+    n_cut: int = 0
+
+    @property
+    def n_springs(self):
+        return self.spring_bodies.shape[0]
+
+    @property
+    def ground(self):
+        return self.n_bodies
+
+    @property
+    def is_support(self):
+        return self.spring_bodies[:, 1] == self.n_bodies
+
+    def stable_dt(self):
+        """Stable step 2/ω_max from a Gershgorin bound on M⁻¹K (row sums of
+        |Bᵀ K B| per spring; the smallest principal moment for rotations):
+        an upper bound on ω_max that includes the shear-lever coupling."""
+        rows = dof_row_sums(self)
+        lam_t = rows[:, :3].max(axis=1) / self.body_mass
+        lam_r = rows[:, 3:].max(axis=1) / self.body_inertia.min(axis=1)
+        lam = max(lam_t.max(initial=0.0), lam_r.max(initial=0.0))
+        return np.inf if lam <= 0 else 2.0 / np.sqrt(lam)
+
+
+@dataclass
+class State:
+    """What changes each step.  Rows 0..N-1 are bodies, row N the ground.
+
+    body_pos (N+1, 3) [m]; body_quat (N+1, 4); body_vel (N+1, 3) [m/s] at
+    the half step; body_angmom (N+1, 3) [kg m²/s] world, half step;
+    body_rot (N+1, 3, 3), body_dq (N+1, 4) derived from body_quat;
+    spring_force, spring_mid (S, 3); body_work, body_damp (N,) [J] accumulated;
+    body_reaction (N, 3) [N]; step (int), dt [s]."""
+    body_pos: np.ndarray
+    body_quat: np.ndarray
+    body_vel: np.ndarray
+    body_angmom: np.ndarray
+    body_rot: np.ndarray
+    body_dq: np.ndarray
+    spring_force: np.ndarray
+    spring_mid: np.ndarray
+    body_work: np.ndarray
+    body_damp: np.ndarray
+    body_reaction: np.ndarray
+    step: int = 0
+    dt: float = 0.0
+
+    @property
+    def time(self):
+        return self.step * self.dt
+
+
+def new_state(model):
+    n, s = model.n_bodies, model.n_springs
+    st = State(body_pos=model.body_pos0.copy(), body_quat=model.body_quat0.copy(),
+               body_vel=np.zeros((n + 1, 3)), body_angmom=np.zeros((n + 1, 3)),
+               body_rot=np.zeros((n + 1, 3, 3)), body_dq=np.zeros((n + 1, 4)),
+               spring_force=np.zeros((s, 3)), spring_mid=np.zeros((s, 3)),
+               body_work=np.zeros(n), body_damp=np.zeros(n), body_reaction=np.zeros((n, 3)))
+    refresh_all_rotations(n + 1, st.body_quat, model.body_quat0, st.body_rot, st.body_dq)
+    return st
+
+
+# --------------------------------------------------------------------------
+# building
+
+
+def build_mesh(case):
+    m = case.mesh
+    box = np.asarray(case.domain.box, dtype=float)
+    if m.kind == "blocks":
+        return block_mesh(box, tuple(m.divisions))
+    return voronoi_mesh(box, m.size, seed=m.seed, min_spacing=m.min_spacing)
+
+
+def _frames_from_normals(normal):
+    """Quaternions of right-handed frames (n, s, t) for unit normals (S, 3)."""
+    helper = np.where(np.abs(normal[:, [0]]) < 0.9, [[1.0, 0, 0]], [[0, 1.0, 0]])
+    s = np.cross(normal, helper)
+    s /= np.linalg.norm(s, axis=1)[:, None]
+    t = np.cross(normal, s)
+    R = np.stack([normal, s, t], axis=2)
+    return np.array([matrix_to_quat(r) for r in R]) if len(R) else np.zeros((0, 4))
+
+
+def _select(case, name, centroids):
+    if name == "all":
+        return np.arange(len(centroids), dtype=IDX)
+    box = np.asarray(case.groups[name].box, dtype=float)
+    tol = 1e-9 * np.max(np.abs(np.asarray(case.domain.box, dtype=float)))
+    inside = np.all((centroids >= box[0] - tol) & (centroids <= box[1] + tol), axis=1)
+    return np.nonzero(inside)[0].astype(IDX)
+
+
+def build_model(case, mesh=None):
+    """Model of a validated Case (mesh built here unless given).
+
+    Raises CaseError (via case.error) for what the schema cannot see: a group
+    that selects no body, an unreachable ν, a body under two loads with
+    different histories."""
+    if mesh is None:
+        mesh = build_mesh(case)
+    n = mesh.n_cells
+    cen = mesh.cell_centroid
+
+    # groups and materials
+    groups = {"all": np.arange(n, dtype=IDX)}
+    for name in (case.groups or {}):
+        ids = _select(case, name, cen)
+        if len(ids) == 0:
+            raise case.error(("groups", name, "box"), "selects no body (no cell centroid inside)")
+        groups[name] = ids
+    mat_names = list(case.materials)
+    body_material = np.zeros(n, dtype=IDX)
+    for name, g in (case.groups or {}).items():
+        if getattr(g, "material", None):
+            body_material[groups[name]] = mat_names.index(g.material)
+    materials = []
+    for k, name in enumerate(mat_names):
+        mat = case.materials[name]
+        for key in ("yield_", "yield", "rupture", "friction"):
+            if getattr(mat, key, None) is not None:
+                raise case.error(("materials", name, key.rstrip("_")),
+                                 "nonlinear spring laws (yield, rupture, contact) are not "
+                                 "implemented yet")
+        try:
+            e0, alpha = stiffness_pair(mat.stiffness, case.mesh.kind, mat.young, mat.poisson)
+        except ValueError as exc:
+            raise case.error(("materials", name, "poisson"), str(exc)) from None
+        materials.append(dict(name=name, density=mat.density, young=mat.young,
+                              poisson=mat.poisson, stiffness=mat.stiffness, e0=e0, alpha=alpha))
+    dens = np.array([m["density"] for m in materials])[body_material]
+    e0 = np.array([m["e0"] for m in materials])[body_material]
+    alpha = np.array([m["alpha"] for m in materials])[body_material]
+
+    # bodies: mass, principal inertia and axes
+    mass = dens * mesh.cell_volume
+    inertia = np.empty((n, 3))
+    quat0 = np.empty((n + 1, 4))
+    rot0 = np.empty((n, 3, 3))
+    for i in range(n):
+        mom, R = principal_axes(dens[i] * mesh.cell_inertia[i])
+        inertia[i] = mom
+        rot0[i] = R
+        quat0[i] = matrix_to_quat(R)
+    quat0[n] = (1.0, 0.0, 0.0, 0.0)
+    pos0 = np.vstack([cen, np.zeros((1, 3))])
+
+    rule = case.mesh.spring_points
+    # internal springs
+    sp = spring_points(mesh.face_vertex_ptr, mesh.face_vertex_xyz, mesh.face_normal, rule)
+    f = sp.face
+    a = mesh.face_cells[f, 0]
+    b = mesh.face_cells[f, 1]
+    nrm = mesh.face_normal[f]
+    fc = mesh.face_centroid[f]
+    h_a = np.einsum("ij,ij->i", fc - cen[a], nrm)
+    h_b = np.einsum("ij,ij->i", cen[b] - fc, nrm)
+    # half-lengths in series (Kawai 1978: h = h1 + h2)
+    kn = 1.0 / (h_a / e0[a] + h_b / e0[b])
+    ks = 1.0 / (h_a / (alpha[a] * e0[a]) + h_b / (alpha[b] * e0[b]))
+    keep = np.ones(len(f), dtype=bool)
+    for j, cut in enumerate(case.cuts or []):
+        p = np.asarray(cut.point, float)
+        nn = np.asarray(cut.normal, float)
+        box = np.asarray(cut.within, float)
+        sa = (cen[a] - p) @ nn
+        sb = (cen[b] - p) @ nn
+        inside = np.all((sp.point >= box[0]) & (sp.point <= box[1]), axis=1)
+        keep &= ~((sa * sb < 0) & inside)
+    n_cut = int((~keep).sum())
+    internal = dict(a=a[keep], b=b[keep], point=sp.point[keep], normal=nrm[keep],
+                    area=sp.weight[keep], h=(h_a + h_b)[keep],
+                    k=np.stack([kn, ks, ks], axis=1)[keep] * sp.weight[keep, None],
+                    frame=_frames_from_normals(nrm[keep]), face=f[keep].astype(IDX))
+
+    # support springs on domain faces (DESIGN.md §1: h = centroid-to-face distance)
+    sup = []
+    seen = set()
+    for j, item in enumerate(case.boundary or []):
+        if getattr(item, "face", None) is None:
+            continue
+        side = FACES.index(item.face)
+        if side in seen:
+            raise case.error(("boundary", j, "face"), f"face {item.face} is supported twice")
+        seen.add(side)
+        fix = ("x", "y", "z") if item.fix == "all" else tuple(item.fix)
+        sel = np.nonzero(mesh.bface_side == side)[0]
+        ptr = np.concatenate([[0], np.cumsum(np.diff(mesh.bface_vertex_ptr)[sel])])
+        xyz = np.concatenate([mesh.bface_vertex_xyz[mesh.bface_vertex_ptr[i]:mesh.bface_vertex_ptr[i + 1]]
+                              for i in sel])
+        bsp = spring_points(ptr, xyz, mesh.bface_normal[sel], rule)
+        bf = sel[bsp.face]
+        cell = mesh.bface_cell[bf]
+        nrm_b = mesh.bface_normal[bf]
+        h = np.einsum("ij,ij->i", mesh.bface_centroid[bf] - cen[cell], nrm_b)
+        kk = e0[cell] / h
+        # frame (n, s, t) = (±e_k, e_k+1, n × s): local components are world axes
+        axis = side // 2
+        e_s = np.zeros(3)
+        e_s[(axis + 1) % 3] = 1.0
+        nvec = np.zeros(3)
+        nvec[axis] = 1.0 if side % 2 else -1.0
+        frame = matrix_to_quat(np.stack([nvec, e_s, np.cross(nvec, e_s)], axis=1))
+        comp = [axis, (axis + 1) % 3, (axis + 2) % 3]
+        k = np.stack([kk, alpha[cell] * kk, alpha[cell] * kk], axis=1)
+        for c in range(3):
+            if "xyz"[comp[c]] not in fix:
+                k[:, c] = 0.0
+        sup.append(dict(a=cell, b=np.full(len(cell), n), point=bsp.point,
+                        normal=nrm_b, area=bsp.weight, h=h, k=k * bsp.weight[:, None],
+                        frame=np.tile(frame, (len(cell), 1)), face=(-1 - bf).astype(IDX)))
+
+    parts = [internal] + sup
+    cat = {key: np.concatenate([p[key] for p in parts]) for key in internal}
+    sb = np.stack([cat["a"], cat["b"]], axis=1).astype(IDX)
+    rot_all = np.concatenate([rot0, np.eye(3)[None]])
+    arm_a = np.einsum("ski,sk->si", rot_all[sb[:, 0]], cat["point"] - pos0[sb[:, 0]])
+    arm_b = np.einsum("ski,sk->si", rot_all[sb[:, 1]], cat["point"] - pos0[sb[:, 1]])
+
+    # CSR body -> springs, in spring order per body (deterministic gather)
+    ends = np.concatenate([sb[:, 0], sb[:, 1]])
+    sid = np.concatenate([np.arange(len(sb)), np.arange(len(sb))])
+    sign = np.concatenate([np.ones(len(sb)), -np.ones(len(sb))])
+    mask = ends < n
+    order = np.lexsort((sid[mask], ends[mask]))
+    csr_spring = sid[mask][order].astype(IDX)
+    csr_sign = sign[mask][order]
+    csr_ptr = np.zeros(n + 1, dtype=IDX)
+    np.cumsum(np.bincount(ends[mask], minlength=n), out=csr_ptr[1:])
+
+    # constraints and prescribed motion
+    hist_t, hist_a, hist_ptr = [], [], [0]
+
+    def add_hist(table):
+        table = np.asarray(table, float)
+        hist_t.extend(table[:, 0])
+        hist_a.extend(table[:, 1])
+        hist_ptr.append(len(hist_t))
+        return len(hist_ptr) - 2
+
+    dof_kind = np.zeros((n, 6), dtype=np.int8)
+    dof_value = np.zeros((n, 6))
+    dof_hist = np.full((n, 6), -1, dtype=IDX)
+    static = case.solver.mode != "dynamic"
+    end_time = getattr(case.solver, "end_time", None) or 1.0
+    for j, item in enumerate(case.boundary or []):
+        if getattr(item, "face", None) is not None:
+            continue
+        ids = groups[item.group]
+        if getattr(item, "fix", None) is not None:
+            fix = COMPONENTS if item.fix == "all" else tuple(item.fix)
+            for c in fix:
+                dof_kind[ids, COMPONENTS.index(c)] = FIXED
+            continue
+        if getattr(item, "velocity", None) is not None:
+            if static:
+                raise case.error(("boundary", j, "velocity"),
+                                 "prescribed velocity needs solver.mode: dynamic "
+                                 "(use displacement in static mode)")
+            kind, vec = VELOCITY, item.velocity
+            h = add_hist(item.history) if getattr(item, "history", None) else -1
+        else:
+            kind, vec = DISPLACEMENT, item.displacement
+            table = getattr(item, "history", None) or [[0.0, 0.0], [end_time, 1.0]]
+            h = add_hist(table)
+        for c in range(3):
+            if vec[c] is not None:
+                dof_kind[ids, c] = kind
+                dof_value[ids, c] = vec[c]
+                dof_hist[ids, c] = h
+
+    # loads: total force/moment shared over the group by volume
+    fext = np.zeros((n, 3))
+    mext = np.zeros((n, 3))
+    load_hist = np.full(n, -1, dtype=IDX)
+    gravity = np.zeros(3)
+    for j, item in enumerate(case.loads or []):
+        if getattr(item, "gravity", None) is not None:
+            gravity += np.asarray(item.gravity, float)
+            continue
+        ids = groups[item.group]
+        w = mesh.cell_volume[ids] / mesh.cell_volume[ids].sum()
+        h = add_hist(item.history) if getattr(item, "history", None) else -1
+        if np.any((load_hist[ids] != -1) & (load_hist[ids] != h)) or (
+                h != -1 and np.any(np.abs(fext[ids]).sum(1) + np.abs(mext[ids]).sum(1) > 0)):
+            raise case.error(("loads", j, "history"),
+                             "a body is loaded by two items with different histories")
+        load_hist[ids] = np.maximum(load_hist[ids], h)
+        if getattr(item, "force", None) is not None:
+            fext[ids] += w[:, None] * np.asarray(item.force, float)
+        if getattr(item, "moment", None) is not None:
+            mext[ids] += w[:, None] * np.asarray(item.moment, float)
+
+    return Model(
+        n_bodies=n, body_mass=mass, body_inertia=inertia, body_volume=mesh.cell_volume.copy(),
+        body_material=body_material, body_pos0=pos0, body_quat0=quat0,
+        spring_bodies=sb, spring_arm_a=np.ascontiguousarray(arm_a),
+        spring_arm_b=np.ascontiguousarray(arm_b), spring_frame0=cat["frame"],
+        spring_k=np.ascontiguousarray(cat["k"]), spring_point=cat["point"],
+        spring_normal=cat["normal"], spring_area=cat["area"], spring_h=cat["h"],
+        spring_face=cat["face"].astype(IDX), csr_ptr=csr_ptr, csr_spring=csr_spring,
+        csr_sign=csr_sign, dof_kind=dof_kind, dof_value=dof_value, dof_hist=dof_hist,
+        body_fext=fext, body_mext=mext, body_load_hist=load_hist, gravity=gravity,
+        hist_ptr=np.asarray(hist_ptr, dtype=IDX), hist_t=np.asarray(hist_t, float),
+        hist_a=np.asarray(hist_a, float), groups=groups, materials=materials, mesh=mesh,
+        n_cut=n_cut)
+
+
+def apply_initial(case, model, state):
+    """Initial velocities and angular velocities (case.initial)."""
+    R = state.body_rot
+    for item in case.initial or []:
+        ids = model.groups[getattr(item, "group", None) or "all"]
+        if getattr(item, "velocity", None) is not None:
+            state.body_vel[ids] = np.asarray(item.velocity, float)
+        if getattr(item, "angular_velocity", None) is not None:
+            w = np.asarray(item.angular_velocity, float)
+            # L = R I Rᵀ ω (world)
+            wb = np.einsum("nki,k->ni", R[ids], w)
+            state.body_angmom[ids] = np.einsum("nik,nk->ni", R[ids], model.body_inertia[ids] * wb)
+
+
+@nb.njit(cache=True)
+def _row_sums(spring_bodies, arm_w_a, arm_w_b, spring_k, frames, n, out):
+    for s in range(spring_bodies.shape[0]):
+        F = frames[s]
+        K = np.zeros((3, 3))
+        for r in range(3):
+            for c in range(3):
+                K[r, c] = abs(F[r, 0] * spring_k[s, 0] * F[c, 0] + F[r, 1] * spring_k[s, 1] * F[c, 1]
+                              + F[r, 2] * spring_k[s, 2] * F[c, 2])
+        # |B| = [I, |[r_a]×|, I, |[r_b]×|]; v = |B| 1
+        ra = arm_w_a[s]
+        rb = arm_w_b[s] * (0.0 if spring_bodies[s, 1] >= n else 1.0)  # ground: no rotation
+        v = np.empty(3)
+        for c in range(3):
+            v[c] = 2.0 + abs(ra[(c + 1) % 3]) + abs(ra[(c + 2) % 3]) \
+                + abs(rb[(c + 1) % 3]) + abs(rb[(c + 2) % 3])
+        w = K @ v
+        for e, r in ((0, ra), (1, rb)):
+            body = spring_bodies[s, e]
+            if body >= n:
+                continue
+            for c in range(3):
+                out[body, c] += w[c]
+                out[body, 3 + c] += abs(r[(c + 1) % 3]) * w[(c + 2) % 3] \
+                    + abs(r[(c + 2) % 3]) * w[(c + 1) % 3]
+
+
+def dof_row_sums(model, body_rot=None):
+    """Row sums of |K| per body DOF (N, 6) of the small-strain stiffness,
+    bounded by Σ_springs |B|ᵀ|K_s||B| (Gershgorin)."""
+    from .physics.rotation import quat_matrix_np
+    n = model.n_bodies
+    rot = quat_matrix_np(model.body_quat0) if body_rot is None else body_rot
+    sb = model.spring_bodies
+    arm_w_a = np.einsum("sij,sj->si", rot[sb[:, 0]], model.spring_arm_a)
+    arm_w_b = np.einsum("sij,sj->si", rot[sb[:, 1]], model.spring_arm_b)
+    frames = quat_matrix_np(model.spring_frame0)
+    out = np.zeros((n, 6))
+    _row_sums(sb, arm_w_a, arm_w_b, model.spring_k, frames, n, out)
+    return out

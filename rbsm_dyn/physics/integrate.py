@@ -1,0 +1,281 @@
+"""Body kernels: gather spring forces per body (CSR, no atomics), apply
+loads and constraints, and advance bodies.
+
+Translations: leapfrog central difference (v at half steps, x at whole
+steps; e.g. Belytschko, Liu & Moran, Nonlinear FE, §6.2).  Rotations: world
+angular momentum L at half steps, kick L += dt·T, then the free-rotor DLM
+splitting with exact sub-rotations for the full principal inertia
+(physics/rotation.py), so a torque-free body keeps world L exactly.
+
+Per-body degree-of-freedom kinds (`dof_kind (N, 6) int8`, components x, y,
+z, rx, ry, rz in world axes): 0 free, 1 fixed, 2 prescribed velocity
+(translations), 3 prescribed displacement (translations).  `dof_value` holds
+the velocity [m/s] or displacement [m]; `dof_hist` an amplitude table index
+(−1: constant 1).  Amplitude tables are piecewise linear (hist_ptr, hist_t,
+hist_a).
+"""
+import math
+
+import numba as nb
+import numpy as np
+
+from .rotation import dlm_free_rotor, quat_mul, quat_to_matrix
+from .springs import elastic_spring_pass
+
+JIT = dict(cache=True, nogil=True, fastmath=False, error_model="numpy")
+
+FREE, FIXED, VELOCITY, DISPLACEMENT = 0, 1, 2, 3
+
+
+@nb.njit(**JIT)
+def amplitude(h, t, hist_ptr, hist_t, hist_a):
+    """Piecewise-linear amplitude of table h at time t (constant 1 if h < 0,
+    held constant outside the table)."""
+    if h < 0:
+        return 1.0
+    i0 = hist_ptr[h]
+    i1 = hist_ptr[h + 1]
+    if t <= hist_t[i0]:
+        return hist_a[i0]
+    for i in range(i0 + 1, i1):
+        if t <= hist_t[i]:
+            w = (t - hist_t[i - 1]) / (hist_t[i] - hist_t[i - 1])
+            return hist_a[i - 1] + w * (hist_a[i] - hist_a[i - 1])
+    return hist_a[i1 - 1]
+
+
+@nb.njit(inline="always", **JIT)
+def gather(i, ground, csr_ptr, csr_spring, csr_sign, spring_bodies, spring_force,
+           spring_mid, body_pos):
+    """Sum of spring forces and moments on body i (fx, fy, fz, mx, my, mz)
+    and the part of the force that comes from support springs (to the
+    ground), as nine scalars."""
+    F0 = F1 = F2 = M0 = M1 = M2 = S0 = S1 = S2 = 0.0
+    x0, x1, x2 = body_pos[i, 0], body_pos[i, 1], body_pos[i, 2]
+    for k in range(csr_ptr[i], csr_ptr[i + 1]):
+        s = csr_spring[k]
+        sg = csr_sign[k]
+        f0 = sg * spring_force[s, 0]
+        f1 = sg * spring_force[s, 1]
+        f2 = sg * spring_force[s, 2]
+        r0 = spring_mid[s, 0] - x0
+        r1 = spring_mid[s, 1] - x1
+        r2 = spring_mid[s, 2] - x2
+        F0 += f0
+        F1 += f1
+        F2 += f2
+        M0 += r1 * f2 - r2 * f1
+        M1 += r2 * f0 - r0 * f2
+        M2 += r0 * f1 - r1 * f0
+        if spring_bodies[s, 1] == ground:
+            S0 += f0
+            S1 += f1
+            S2 += f2
+    return F0, F1, F2, M0, M1, M2, S0, S1, S2
+
+
+@nb.njit(**JIT)
+def constrain_rotation(i, dof_kind, R, inertia, L):
+    """Make the world angular velocity ω = R I⁻¹ Rᵀ L zero in the fixed world
+    components by a reaction moment along those axes: solve A_cc λ = −(A L)_c,
+    L += Σ λ_c e_c (A = R I⁻¹ Rᵀ)."""
+    nfix = 0
+    for c in range(3):
+        if dof_kind[i, 3 + c] == FIXED:
+            nfix += 1
+    if nfix == 0:
+        return
+    if nfix == 3:
+        L[0] = 0.0
+        L[1] = 0.0
+        L[2] = 0.0
+        return
+    A = np.empty((3, 3))
+    for r in range(3):
+        for c in range(3):
+            A[r, c] = (R[r, 0] * R[c, 0] / inertia[0] + R[r, 1] * R[c, 1] / inertia[1]
+                       + R[r, 2] * R[c, 2] / inertia[2])
+    idx = np.empty(nfix, dtype=np.int64)
+    n = 0
+    for c in range(3):
+        if dof_kind[i, 3 + c] == FIXED:
+            idx[n] = c
+            n += 1
+    Acc = np.empty((nfix, nfix))
+    rhs = np.empty(nfix)
+    for r in range(nfix):
+        rhs[r] = -(A[idx[r], 0] * L[0] + A[idx[r], 1] * L[1] + A[idx[r], 2] * L[2])
+        for c in range(nfix):
+            Acc[r, c] = A[idx[r], idx[c]]
+    lam = np.linalg.solve(Acc, rhs)
+    for r in range(nfix):
+        L[idx[r]] += lam[r]
+
+
+@nb.njit(**JIT)
+def refresh_rotation(i, body_quat, body_quat0, body_rot, body_dq):
+    """Rotation matrix and increment Δq = q q0⁻¹ of body i from its quaternion."""
+    quat_to_matrix(body_quat[i], body_rot[i])
+    q = body_quat[i]
+    p = body_quat0[i]
+    w, x, y, z = quat_mul(q[0], q[1], q[2], q[3], p[0], -p[1], -p[2], -p[3])
+    body_dq[i, 0] = w
+    body_dq[i, 1] = x
+    body_dq[i, 2] = y
+    body_dq[i, 3] = z
+
+
+@nb.njit(parallel=True, **JIT)
+def refresh_all_rotations(n, body_quat, body_quat0, body_rot, body_dq):
+    for i in nb.prange(n):
+        refresh_rotation(i, body_quat, body_quat0, body_rot, body_dq)
+
+
+@nb.njit(**JIT)
+def rotate_body(i, dt, inertia, body_quat, body_angmom, body_rot):
+    """Free-rotor update of body i's quaternion over dt with its (half-step)
+    world angular momentum (DLM, physics/rotation.py)."""
+    L = body_angmom[i]
+    if L[0] == 0.0 and L[1] == 0.0 and L[2] == 0.0:
+        return
+    R = body_rot[i]
+    dlm_free_rotor(body_quat[i],
+                   R[0, 0] * L[0] + R[1, 0] * L[1] + R[2, 0] * L[2],
+                   R[0, 1] * L[0] + R[1, 1] * L[1] + R[2, 1] * L[2],
+                   R[0, 2] * L[0] + R[1, 2] * L[1] + R[2, 2] * L[2],
+                   inertia, dt)
+
+
+@nb.njit(parallel=True, **JIT)
+def dynamic_body_pass(t, dt, ground, csr_ptr, csr_spring, csr_sign, spring_bodies,
+                      spring_force, spring_mid,
+                      body_mass, body_inertia, body_pos, body_pos0, body_quat, body_quat0,
+                      body_vel, body_angmom, body_rot, body_dq,
+                      body_fext, body_mext, body_load_hist, gravity, damping_alpha,
+                      dof_kind, dof_value, dof_hist, hist_ptr, hist_t, hist_a,
+                      body_work, body_damp, body_reaction):
+    """One leapfrog step of every body, from forces at time t to t + dt.
+
+    Accumulates per body the work of external loads and constraints
+    (`body_work` [J]) and the energy dissipated by mass-proportional damping
+    (`body_damp` [J]); `body_reaction` gets the force of supports and
+    constraints on the body at time t [N]."""
+    n = body_mass.shape[0]
+    c = 0.5 * damping_alpha * dt
+    for i in nb.prange(n):
+        g = gather(i, ground, csr_ptr, csr_spring, csr_sign, spring_bodies, spring_force,
+                   spring_mid, body_pos)
+        m = body_mass[i]
+        amp = amplitude(body_load_hist[i], t, hist_ptr, hist_t, hist_a)
+        work = 0.0
+        damp = 0.0
+        for k in range(3):
+            fext = amp * body_fext[i, k] + m * gravity[k]
+            f = g[k] + fext
+            v_old = body_vel[i, k]
+            kind = dof_kind[i, k]
+            if kind == FREE:
+                # mass-proportional damping, central difference (c = α dt / 2)
+                v_new = ((1.0 - c) * v_old + dt * f / m) / (1.0 + c)
+                reaction = g[6 + k]
+            else:
+                if kind == FIXED:
+                    v_new = 0.0
+                elif kind == VELOCITY:
+                    v_new = dof_value[i, k] * amplitude(dof_hist[i, k], t + 0.5 * dt,
+                                                        hist_ptr, hist_t, hist_a)
+                else:
+                    target = body_pos0[i, k] + dof_value[i, k] * amplitude(
+                        dof_hist[i, k], t + dt, hist_ptr, hist_t, hist_a)
+                    v_new = (target - body_pos[i, k]) / dt
+                # force the constraint adds so that m a = f + r
+                r = m * (v_new - v_old) / dt - f
+                reaction = g[6 + k] + r
+                work += r * v_new * dt
+            work += fext * v_new * dt
+            va = 0.5 * (v_old + v_new)
+            damp += damping_alpha * m * va * va * dt
+            body_vel[i, k] = v_new
+            body_pos[i, k] += v_new * dt
+            body_reaction[i, k] = reaction
+        # rotation: kick world L, constrain, free rotor
+        L = body_angmom[i]
+        inertia = body_inertia[i]
+        for k in range(3):
+            mext = amp * body_mext[i, k]
+            l_old = L[k]
+            L[k] = ((1.0 - c) * l_old + dt * (g[3 + k] + mext)) / (1.0 + c)
+        constrain_rotation(i, dof_kind, body_rot[i], inertia, L)
+        if damping_alpha > 0.0 or amp != 0.0:
+            # ω at the half step, for damping dissipation and moment work
+            R = body_rot[i]
+            for k in range(3):
+                lb = R[0, k] * L[0] + R[1, k] * L[1] + R[2, k] * L[2]
+                wb = lb / inertia[k]
+                damp += damping_alpha * lb * wb * dt
+                for r in range(3):
+                    work += amp * body_mext[i, r] * R[r, k] * wb * dt
+        rotate_body(i, dt, inertia, body_quat, body_angmom, body_rot)
+        refresh_rotation(i, body_quat, body_quat0, body_rot, body_dq)
+        body_work[i] += work
+        body_damp[i] += damp
+
+
+@nb.njit(**JIT)
+def run_dynamic(n_steps, step0, dt, ground,
+                spring_bodies, spring_arm_a, spring_arm_b, spring_frame0, spring_k,
+                spring_force, spring_mid,
+                csr_ptr, csr_spring, csr_sign,
+                body_mass, body_inertia, body_pos, body_pos0, body_quat, body_quat0,
+                body_vel, body_angmom, body_rot, body_dq,
+                body_fext, body_mext, body_load_hist, gravity, damping_alpha,
+                dof_kind, dof_value, dof_hist, hist_ptr, hist_t, hist_a,
+                body_work, body_damp, body_reaction):
+    """Advance n_steps explicit steps inside compiled code.  Step order:
+    springs at x_n (forces on a, midpoints) → bodies gather, kick, drift."""
+    for k in range(n_steps):
+        t = (step0 + k) * dt
+        elastic_spring_pass(spring_bodies, spring_arm_a, spring_arm_b, spring_frame0,
+                            spring_k, body_pos, body_rot, body_dq, spring_force, spring_mid)
+        dynamic_body_pass(t, dt, ground, csr_ptr, csr_spring, csr_sign, spring_bodies,
+                          spring_force, spring_mid,
+                          body_mass, body_inertia, body_pos, body_pos0, body_quat,
+                          body_quat0, body_vel, body_angmom, body_rot, body_dq,
+                          body_fext, body_mext, body_load_hist, gravity, damping_alpha,
+                          dof_kind, dof_value, dof_hist, hist_ptr, hist_t, hist_a,
+                          body_work, body_damp, body_reaction)
+    return step0 + n_steps
+
+
+@nb.njit(parallel=True, **JIT)
+def synchronized_momenta(t, dt, ground, csr_ptr, csr_spring, csr_sign, spring_bodies,
+                         spring_force, spring_mid, body_mass, body_pos, body_vel,
+                         body_angmom, body_fext, body_mext, body_load_hist, gravity,
+                         dof_kind, dof_value, dof_hist, hist_ptr, hist_t, hist_a,
+                         out_vel, out_angmom, out_reaction):
+    """Velocity and world angular momentum at the whole step t (half kick
+    from t − dt/2 with the forces at t; output steps only), and the force
+    of supports and constraints on each body at t."""
+    for i in nb.prange(body_mass.shape[0]):
+        g = gather(i, ground, csr_ptr, csr_spring, csr_sign, spring_bodies, spring_force,
+                   spring_mid, body_pos)
+        m = body_mass[i]
+        amp = amplitude(body_load_hist[i], t, hist_ptr, hist_t, hist_a)
+        for k in range(3):
+            f = g[k] + amp * body_fext[i, k] + m * gravity[k]
+            kind = dof_kind[i, k]
+            if kind == FREE:
+                out_vel[i, k] = body_vel[i, k] + 0.5 * dt * f / m
+                out_reaction[i, k] = g[6 + k]
+            else:
+                if kind == FIXED:
+                    v = 0.0
+                elif kind == VELOCITY:
+                    v = dof_value[i, k] * amplitude(dof_hist[i, k], t, hist_ptr, hist_t, hist_a)
+                else:
+                    v = body_vel[i, k]
+                out_vel[i, k] = v
+                out_reaction[i, k] = g[6 + k] - f
+            fixed_rot = dof_kind[i, 3 + k] == FIXED
+            out_angmom[i, k] = 0.0 if fixed_rot else (
+                body_angmom[i, k] + 0.5 * dt * (g[3 + k] + amp * body_mext[i, k]))

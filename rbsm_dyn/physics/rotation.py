@@ -1,0 +1,153 @@
+"""Quaternion and finite-rotation helpers (Numba, scalar-first quaternions).
+
+Conventions: a unit quaternion q = (w, x, y, z) maps a vector from the body's
+principal frame to the world frame, v_world = R(q) v_body.  Products are
+Hamilton products.  All functions work on small arrays or scalars and
+allocate nothing except their small return tuples.
+"""
+import math
+
+import numba as nb
+import numpy as np
+
+JIT = dict(cache=True, nogil=True, fastmath=False, error_model="numpy")
+
+
+@nb.njit(**JIT)
+def quat_mul(a0, a1, a2, a3, b0, b1, b2, b3):
+    """Hamilton product a ⊗ b (scalar first)."""
+    return (a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3,
+            a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
+            a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1,
+            a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0)
+
+
+@nb.njit(**JIT)
+def quat_to_matrix(q, out):
+    """Rotation matrix of the unit quaternion q into out (3, 3)."""
+    w, x, y, z = q[0], q[1], q[2], q[3]
+    out[0, 0] = 1.0 - 2.0 * (y * y + z * z)
+    out[0, 1] = 2.0 * (x * y - w * z)
+    out[0, 2] = 2.0 * (x * z + w * y)
+    out[1, 0] = 2.0 * (x * y + w * z)
+    out[1, 1] = 1.0 - 2.0 * (x * x + z * z)
+    out[1, 2] = 2.0 * (y * z - w * x)
+    out[2, 0] = 2.0 * (x * z - w * y)
+    out[2, 1] = 2.0 * (y * z + w * x)
+    out[2, 2] = 1.0 - 2.0 * (x * x + y * y)
+
+
+@nb.njit(**JIT)
+def dlm_free_rotor(q, l0, l1, l2, inertia, h):
+    """Advance the free asymmetric rotor by h with the Dullweber-Leimkuhler-
+    McLachlan splitting (J. Chem. Phys. 107, 5840, 1997; Miller et al.,
+    J. Chem. Phys. 116, 8649, 2002, 'NO_SQUISH', as in LAMMPS fix rigid):
+    exact sub-rotations about the body axes in the order 3, 2, 1, 2, 3 with
+    steps h/2, h/2, h, h/2, h/2.
+
+    q: (4,) orientation, updated in place (renormalised at the end).
+    l0, l1, l2: angular momentum in the body frame (world L stays fixed).
+    inertia: (3,) principal moments.
+    """
+    lb0, lb1, lb2 = l0, l1, l2
+    q0, q1, q2, q3 = q[0], q[1], q[2], q[3]
+    for sub in range(5):
+        if sub == 0 or sub == 4:
+            k, dt = 2, 0.5 * h
+        elif sub == 1 or sub == 3:
+            k, dt = 1, 0.5 * h
+        else:
+            k, dt = 0, h
+        if k == 0:
+            phi = lb0 / inertia[0] * dt
+        elif k == 1:
+            phi = lb1 / inertia[1] * dt
+        else:
+            phi = lb2 / inertia[2] * dt
+        c = math.cos(phi)
+        s = math.sin(phi)
+        # body-frame L turns by -phi about axis k
+        if k == 0:
+            lb1, lb2 = c * lb1 + s * lb2, -s * lb1 + c * lb2
+        elif k == 1:
+            lb2, lb0 = c * lb2 + s * lb0, -s * lb2 + c * lb0
+        else:
+            lb0, lb1 = c * lb0 + s * lb1, -s * lb0 + c * lb1
+        # q <- q ⊗ (cos(phi/2), sin(phi/2) e_k)
+        ch = math.cos(0.5 * phi)
+        sh = math.sin(0.5 * phi)
+        b1 = sh if k == 0 else 0.0
+        b2 = sh if k == 1 else 0.0
+        b3 = sh if k == 2 else 0.0
+        q0, q1, q2, q3 = quat_mul(q0, q1, q2, q3, ch, b1, b2, b3)
+    n = math.sqrt(q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
+    q[0] = q0 / n
+    q[1] = q1 / n
+    q[2] = q2 / n
+    q[3] = q3 / n
+
+
+def matrix_to_quat(R):
+    """Unit quaternion (w, x, y, z), w >= 0, of a proper rotation matrix
+    (Shepperd's method, J. Guidance Control 1, 223, 1978). NumPy, not jitted."""
+    R = np.asarray(R, dtype=float)
+    tr = np.trace(R)
+    cands = np.array([tr, R[0, 0], R[1, 1], R[2, 2]])
+    k = int(np.argmax(cands))
+    if k == 0:
+        w = 0.5 * math.sqrt(1.0 + tr)
+        x = (R[2, 1] - R[1, 2]) / (4 * w)
+        y = (R[0, 2] - R[2, 0]) / (4 * w)
+        z = (R[1, 0] - R[0, 1]) / (4 * w)
+    elif k == 1:
+        x = 0.5 * math.sqrt(1.0 + 2 * R[0, 0] - tr)
+        w = (R[2, 1] - R[1, 2]) / (4 * x)
+        y = (R[0, 1] + R[1, 0]) / (4 * x)
+        z = (R[0, 2] + R[2, 0]) / (4 * x)
+    elif k == 2:
+        y = 0.5 * math.sqrt(1.0 + 2 * R[1, 1] - tr)
+        w = (R[0, 2] - R[2, 0]) / (4 * y)
+        x = (R[0, 1] + R[1, 0]) / (4 * y)
+        z = (R[1, 2] + R[2, 1]) / (4 * y)
+    else:
+        z = 0.5 * math.sqrt(1.0 + 2 * R[2, 2] - tr)
+        w = (R[1, 0] - R[0, 1]) / (4 * z)
+        x = (R[0, 2] + R[2, 0]) / (4 * z)
+        y = (R[1, 2] + R[2, 1]) / (4 * z)
+    q = np.array([w, x, y, z])
+    q /= np.linalg.norm(q)
+    return q if q[0] >= 0 else -q
+
+
+def quat_matrix_np(q):
+    """Rotation matrices of quaternions q (..., 4) -> (..., 3, 3). NumPy."""
+    q = np.asarray(q, dtype=float)
+    w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+    R = np.empty(q.shape[:-1] + (3, 3))
+    R[..., 0, 0] = 1 - 2 * (y * y + z * z)
+    R[..., 0, 1] = 2 * (x * y - w * z)
+    R[..., 0, 2] = 2 * (x * z + w * y)
+    R[..., 1, 0] = 2 * (x * y + w * z)
+    R[..., 1, 1] = 1 - 2 * (x * x + z * z)
+    R[..., 1, 2] = 2 * (y * z - w * x)
+    R[..., 2, 0] = 2 * (x * z - w * y)
+    R[..., 2, 1] = 2 * (y * z + w * x)
+    R[..., 2, 2] = 1 - 2 * (x * x + y * y)
+    return R
+
+
+def axis_angle_quat(axis, angle):
+    """Quaternion of a rotation by `angle` about `axis` (NumPy)."""
+    a = np.asarray(axis, dtype=float)
+    a = a / np.linalg.norm(a)
+    return np.concatenate([[math.cos(angle / 2)], math.sin(angle / 2) * a])
+
+
+def quat_mul_np(a, b):
+    """Hamilton product of quaternion arrays (..., 4) (NumPy)."""
+    a0, a1, a2, a3 = np.moveaxis(np.asarray(a, float), -1, 0)
+    b0, b1, b2, b3 = np.moveaxis(np.asarray(b, float), -1, 0)
+    return np.stack([a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3,
+                     a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
+                     a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1,
+                     a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0], axis=-1)

@@ -1,0 +1,167 @@
+"""What a run records: static model data, per-frame fields, energies and
+probes, written through io/history.py in the H5MD layout (docs/history.md).
+
+Energies (output steps only, never per step):
+  kinetic   ½ Σ m v·v + ½ Σ Lb·I⁻¹Lb at synchronized velocities [J]
+  strain    ½ Σ k δ² over spring points [J]
+  external  work of loads, gravity and constraints since t = 0 [J]
+  damping   energy dissipated by mass-proportional damping [J]
+Balance: kinetic + strain + damping = kinetic(0) + strain(0) + external.
+"""
+import json
+
+import numpy as np
+
+from .. import __version__
+from ..io.history import HistoryWriter
+from ..physics.rotation import quat_matrix_np, quat_mul_np
+from ..physics.springs import elastic_energy, spring_local_gap
+
+FIELD_SERIES = {
+    "position": ("particles/bodies/position", (3,), "f8", "m"),
+    "orientation": ("particles/bodies/orientation", (4,), "f8", "1"),
+    "velocity": ("particles/bodies/velocity", (3,), "f8", "m s-1"),
+    "angular_velocity": ("particles/bodies/angular_velocity", (3,), "f8", "s-1"),
+    "spring_state": ("springs/state", None, "i1", "1"),
+    "spring_force": ("springs/force", None, "f8", "N"),
+}
+PROBE_UNITS = {"displacement": "m", "rotation": "rad", "velocity": "m s-1",
+               "force": "N", "reaction": "N"}
+
+
+def versions():
+    import h5py
+    import numba
+    import scipy
+    return {"rbsm_dyn": __version__, "numpy": np.__version__, "numba": numba.__version__,
+            "scipy": scipy.__version__, "h5py": h5py.__version__}
+
+
+def rotation_vectors(model, body_quat):
+    """World rotation vectors (axis × angle) of Δq = q q0⁻¹ (N, 3) [rad]."""
+    q0 = model.body_quat0[:-1].copy()
+    q0[:, 1:] *= -1
+    dq = quat_mul_np(body_quat[:-1], q0)
+    dq[dq[:, 0] < 0] *= -1
+    s = np.linalg.norm(dq[:, 1:], axis=1)
+    ang = 2 * np.arctan2(s, dq[:, 0])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        fac = np.where(s > 1e-300, ang / s, 2.0)
+    return dq[:, 1:] * fac[:, None]
+
+
+class Recorder:
+    """Opens the history, writes the static part, appends frames."""
+
+    def __init__(self, case, model, path, *, threads, extra_observables=()):
+        self.case = case
+        self.model = model
+        out = case.output
+        self.fields = list(out.fields)
+        self.probes = dict(out.probes or {})
+        self.writer = w = HistoryWriter(
+            path, creator="rbsm_dyn", creator_version=__version__,
+            parameters={"case_yaml": case.source_text,
+                        "resolved_case": json.dumps(case.resolved()),
+                        "versions": json.dumps(versions()),
+                        "threads": str(threads),
+                        "materials": json.dumps(model.materials)})
+        m, mesh = model, model.mesh
+        w.write_static("particles/bodies/mass", m.body_mass, "kg")
+        w.write_static("particles/bodies/inertia", m.body_inertia, "kg m2")
+        w.write_static("particles/bodies/volume", m.body_volume, "m3")
+        w.write_static("particles/bodies/material", m.body_material, "1")
+        w.write_static("particles/bodies/reference_position", m.body_pos0[:-1], "m")
+        w.write_static("particles/bodies/reference_orientation", m.body_quat0[:-1], "1")
+        w.write_static("particles/bodies/geometry/vertices", mesh.vertices, "m")
+        w.write_static("particles/bodies/geometry/cell_vertex_ptr", mesh.cell_vertex_ptr, "1")
+        w.write_static("particles/bodies/geometry/poly_ptr", mesh.poly_ptr, "1")
+        w.write_static("particles/bodies/geometry/poly_vertex", mesh.poly_vertex, "1")
+        w.write_static("particles/bodies/geometry/cell_poly_ptr", mesh.cell_poly_ptr, "1")
+        w.write_static("connectivity/springs", m.spring_bodies, "1")
+        w.write_static("springs/position", m.spring_point, "m")
+        w.write_static("springs/normal", m.spring_normal, "1")
+        w.write_static("springs/area", m.spring_area, "m2")
+        w.write_static("springs/face", m.spring_face, "1")
+        w.write_static("springs/support", m.is_support.astype(np.int8), "1")
+        for name in self.fields:
+            path_, tail, dt, unit = FIELD_SERIES[name]
+            if tail is None:
+                tail = (m.n_springs,) if name == "spring_state" else (m.n_springs, 3)
+            else:
+                tail = (m.n_bodies,) + tail
+            w.add_series(path_, tail, dt, unit)
+        self.observables = {"kinetic": "J", "strain": "J", "external_work": "J",
+                            "damping": "J", "n_broken": "1"}
+        self.observables.update(dict(extra_observables))
+        for name, unit in self.observables.items():
+            w.add_series(f"observables/{name}", (), "f8", unit)
+        for name, p in self.probes.items():
+            w.add_series(f"observables/{name}", (), "f8", PROBE_UNITS[p.quantity])
+        w.start()
+        self._delta = np.zeros((m.n_springs, 3))
+
+    def strain_energy(self, state):
+        m = self.model
+        spring_local_gap(m.spring_bodies, m.spring_arm_a, m.spring_arm_b, m.spring_frame0,
+                         state.body_pos, state.body_rot, state.body_dq, self._delta)
+        return elastic_energy(m.spring_k, self._delta)
+
+    def probe_values(self, state, vel, omega, t, amp_load):
+        m = self.model
+        out = {}
+        for name, p in self.probes.items():
+            ids = m.groups[p.group]
+            if p.quantity == "displacement":
+                v = state.body_pos[ids] - m.body_pos0[ids]
+            elif p.quantity == "rotation":
+                v = rotation_vectors(m, state.body_quat)[ids]
+            elif p.quantity == "velocity":
+                v = vel[ids]
+            elif p.quantity == "force":
+                v = amp_load[ids, None] * m.body_fext[ids] + m.body_mass[ids, None] * m.gravity
+            else:
+                v = state.body_reaction[ids]
+            comp = v[:, "xyz".index(p.component)] if p.component in "xyz" else np.linalg.norm(v, axis=1)
+            out[name] = float(getattr(np, p.reduce)(comp))
+        return out
+
+    def append(self, state, step, time, vel, angmom, observables, amp_load):
+        """vel, angmom: synchronized (N, 3) arrays at this time."""
+        m = self.model
+        R = state.body_rot[:-1]
+        lb = np.einsum("nki,nk->ni", R, angmom)
+        omega = np.einsum("nik,nk->ni", R, lb / m.body_inertia)
+        values = {}
+        for name in self.fields:
+            path_ = FIELD_SERIES[name][0]
+            if name == "position":
+                values[path_] = state.body_pos[:-1]
+            elif name == "orientation":
+                values[path_] = state.body_quat[:-1]
+            elif name == "velocity":
+                values[path_] = vel
+            elif name == "angular_velocity":
+                values[path_] = omega
+            elif name == "spring_state":
+                values[path_] = np.zeros(m.n_springs, dtype=np.int8)
+            elif name == "spring_force":
+                values[path_] = state.spring_force
+        obs = dict(observables)
+        obs.update(self.probe_values(state, vel, omega, time, amp_load))
+        for name, val in obs.items():
+            values[f"observables/{name}"] = val
+        self.writer.append_frame(step, time, values)
+        return obs
+
+    def kinetic(self, vel, angmom, state):
+        m = self.model
+        lb = np.einsum("nki,nk->ni", state.body_rot[:-1], angmom)
+        return 0.5 * float(np.sum(m.body_mass[:, None] * vel * vel)) + \
+            0.5 * float(np.sum(lb * lb / m.body_inertia))
+
+    def fail(self, message):
+        self.writer.mark_failed(message)
+
+    def close(self):
+        self.writer.close()
