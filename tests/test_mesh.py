@@ -25,6 +25,9 @@ RTOL = 1e-12
 def rel(a, b):
     """Max abs difference relative to the magnitude of b."""
     a, b = np.asarray(a, float), np.asarray(b, float)
+    assert a.shape == b.shape
+    if a.size == 0:
+        return 0.0
     return np.max(np.abs(a - b)) / max(np.max(np.abs(b)), 1e-300)
 
 
@@ -45,7 +48,7 @@ def divergence_reference(points):
       V = Σ d A / 3,  ∫x dV = Σ d ∫x dA / 4,  ∫x xᵀ dV = Σ d ∫x xᵀ dA / 5,
     with the exact triangle moments ∫x dA = A s/3, ∫x xᵀ dA = A/12 (Σ v vᵀ + s sᵀ)."""
     hull = ConvexHull(points)
-    V = C = 0.0
+    V = 0.0
     first = np.zeros(3)
     second = np.zeros((3, 3))
     for simplex, eq in zip(hull.simplices, hull.equations):
@@ -59,7 +62,6 @@ def divergence_reference(points):
         second += d * area / 12.0 * (v.T @ v + np.outer(s, s)) / 5.0
     g = first / V
     CG = second - V * np.outer(g, g)
-    del C
     return V, g, np.trace(CG) * np.eye(3) - CG
 
 
@@ -331,7 +333,7 @@ def test_voronoi_cells_are_voronoi_cells(voronoi_case):
     pav = polygon_area_vectors(m.poly_ptr, m.vertices[m.poly_vertex])
     p0 = m.vertices[m.poly_vertex[m.poly_ptr[:-1]]]
     assert np.all(np.einsum("ij,ij->i", pav, s[pcell] - p0) < 0)
-    # a cell's polygons face every seed that shares a face with it
+    # every cell has a neighbour
     assert len(np.unique(m.face_cells.ravel())) == N or N == 1
 
 
@@ -358,6 +360,24 @@ def test_voronoi_mesh_reproducible():
     for name in Mesh.__dataclass_fields__:
         assert np.array_equal(getattr(m1, name), getattr(m2, name)), name
     assert not np.array_equal(m1.cell_centroid, m3.cell_centroid)
+
+
+def test_voronoi_fewer_mirrors_same_cells(monkeypatch):
+    """Mirroring only the seeds near each side (and retrying with all mirrors when a
+    cell is left open) gives the same cells as mirroring every seed."""
+    import rbsm_dyn.mesh.voronoi as vm
+
+    box, size = [[0, 0, 0], [0.5, 0.3, 0.2]], 0.05
+    ref = voronoi_mesh(box, size, seed=3)
+    for reach in (0.3, np.inf):  # 0.3: some cells open -> retry; inf: all mirrors at once
+        monkeypatch.setattr(vm, "_REACH", reach)
+        m = voronoi_mesh(box, size, seed=3)
+        assert np.array_equal(m.face_cells, ref.face_cells)
+        assert np.array_equal(m.bface_cell, ref.bface_cell)
+        assert rel(m.cell_volume, ref.cell_volume) < 1e-12
+        assert rel(m.cell_inertia, ref.cell_inertia) < 1e-12
+        assert rel(m.face_area, ref.face_area) < 1e-12
+        assert rel(m.bface_area, ref.bface_area) < 1e-12
 
 
 def test_voronoi_lattice_seeds_give_blocks():
@@ -435,11 +455,6 @@ def face_set(polys2d, rng):
         xyz.append(v)
         normal.append(n)
     return np.array(ptr), np.vstack(xyz), np.array(normal), exact
-
-
-def point_moments(sp, F):
-    W = np.bincount(sp.face, sp.weight, minlength=F)
-    return W
 
 
 def check_rule(ptr, xyz, normal, exact, rule, exact_second):

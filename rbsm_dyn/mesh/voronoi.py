@@ -44,6 +44,9 @@ from .spring_points import polygon_properties
 
 __all__ = ["voronoi_mesh", "voronoi_seeds"]
 
+# seeds closer than _REACH * size to a side are mirrored across it (first try)
+_REACH = 3.0
+
 
 def _morton_order(points, lo, h):
     """Argsort of points along a Z-order curve on a grid of spacing h."""
@@ -183,7 +186,7 @@ def voronoi_mesh(box, size, seed=0, min_spacing=0.5, *, seeds=None) -> Mesh:
         return block_mesh(box, (1, 1, 1))
 
     box_volume = float(np.prod(box[1] - box[0]))
-    for reach in (3.0 * size, np.inf):
+    for reach in (_REACH * size, np.inf):
         out = _tessellate(seeds, box, size, reach)
         if out is None:
             continue
