@@ -1,2 +1,16 @@
 """rbsm_dyn: Kawai rigid-body-spring model, explicit dynamics."""
 __version__ = "0.1.0"
+__all__ = ["open_history", "load_case", "__version__"]
+
+
+def open_history(path):
+    """Read an rbsm_dyn history (HDF5, H5MD) into NumPy arrays
+    (see rbsm_dyn.io.history.History)."""
+    from .io.history import open_history as _open
+    return _open(path)
+
+
+def load_case(path):
+    """Read and validate a case file (raises rbsm_dyn.case.CaseError)."""
+    from .case import load_case as _load
+    return _load(path)
