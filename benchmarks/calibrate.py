@@ -1,0 +1,128 @@
+"""Measure the effective elastic constants of the RBSM lattices
+(DESIGN.md §1, VERIFICATION.md "General"; method in docs/calibration.md).
+
+    python benchmarks/calibrate.py alpha [--cells 1000] [--seeds 1 2 3]
+        E_eff/E0 and ν_eff against α = k_s/k_n for the Voronoi generator
+        (min_spacing 0.5) and the block mesh; prints the rows for
+        rbsm_dyn/calibration.py VORONOI_TABLE.
+    python benchmarks/calibrate.py check [--cells 1000] [--seeds 1 2 3]
+        E_eff/E and ν_eff for each mesh kind under the `kawai` and
+        `calibrated` stiffness rules (through the ordinary Case -> Model path).
+
+Specimen: the unit cube, about `--cells` cells (Voronoi size = cells^(-1/3);
+blocks n × n × n), no supports; uniaxial stress along x, y and z in turn
+(rbsm_dyn.stiffness.uniaxial_moduli: uniform end tractions, strain from the
+displacement fit over the central half).  Each value is the mean over the
+seeds and the three axes; ± is the standard deviation of those samples.
+"""
+import argparse
+import dataclasses
+import time
+
+import numpy as np
+
+from rbsm_dyn.case import load_case_text
+from rbsm_dyn.model import build_mesh, build_model
+from rbsm_dyn.stiffness import stiffness_matrix, uniaxial_moduli
+
+E_REF = 200.0e9
+CASE = """\
+name: calibrate
+domain: {{box: [[0, 0, 0], [1.0, 1.0, 1.0]]}}
+mesh: {mesh}
+materials:
+  m: {{density: 8000, young: {young!r}, poisson: {poisson!r}, stiffness: {rule}}}
+solver: {{mode: static}}
+"""
+
+
+def mesh_yaml(kind, cells, seed):
+    if kind == "blocks":
+        n = round(cells ** (1 / 3))
+        return f"{{kind: blocks, divisions: [{n}, {n}, {n}]}}"
+    return f"{{kind: voronoi, size: {cells ** (-1 / 3)!r}, seed: {seed}}}"
+
+
+def case_for(kind, cells, seed, young=E_REF, poisson=0.0, rule="calibrated"):
+    return load_case_text(CASE.format(mesh=mesh_yaml(kind, cells, seed), young=young,
+                                      poisson=poisson, rule=rule), "calibrate.yaml")
+
+
+def split_stiffness(model):
+    """K_n and K_s per unit E0 and α: K(E0, α) = E0 (K_n + α K_s).
+
+    The model is built at ν = 0 (E0 = E_REF, α = 1 for both mesh kinds), so
+    spring_k = E_REF (A/h) (1, 1, 1)."""
+    k = model.spring_k / E_REF
+    kn = stiffness_matrix(dataclasses.replace(model, spring_k=k * [1.0, 0.0, 0.0]))
+    ks = stiffness_matrix(dataclasses.replace(model, spring_k=k * [0.0, 1.0, 1.0]))
+    return kn, ks
+
+
+def alpha_sweep(args):
+    alphas = np.round(np.arange(0.0, 1.2001, 0.1), 10)
+    print(f"# uniaxial stress, unit cube, ~{args.cells} cells, seeds {args.seeds}, "
+          f"core {args.core}")
+    for kind in ("voronoi", "blocks"):
+        seeds = args.seeds if kind == "voronoi" else [0]
+        samples = {a: ([], []) for a in alphas}
+        for seed in seeds:
+            t0 = time.perf_counter()
+            case = case_for(kind, args.cells, seed)
+            model = build_model(case)
+            assert model.materials[0]["e0"] == E_REF and model.materials[0]["alpha"] == 1.0
+            kn, ks = split_stiffness(model)
+            for a in alphas:
+                if kind == "blocks" and a == 0.0:
+                    continue        # k_s = 0: the cubic lattice has a shear mechanism
+                E, nu = uniaxial_moduli(model, core=args.core, K=kn + a * ks)
+                samples[a][0].extend(E)
+                samples[a][1].extend(nu)
+            print(f"# {kind} seed {seed}: {model.n_bodies} cells, {model.n_springs} spring "
+                  f"points, {time.perf_counter() - t0:.1f} s")
+        print(f"\n{kind}: alpha, E/E0, nu  (mean ± std over {len(seeds)} seed(s) × 3 axes)")
+        for a in alphas:
+            E, nu = map(np.array, samples[a])
+            if len(E):
+                print(f"    [{a:.2f}, {E.mean():.4f}, {nu.mean():.4f}],   "
+                      f"# ± {E.std():.4f}, ± {nu.std():.4f}")
+
+
+def check(args):
+    print(f"# uniaxial stress, unit cube, ~{args.cells} cells, Voronoi seeds {args.seeds}")
+    print("| mesh | stiffness | target ν | E0/E | α | E_eff/E | ν_eff |")
+    print("|---|---|---|---|---|---|---|")
+    for kind in ("blocks", "voronoi"):
+        seeds = args.seeds if kind == "voronoi" else [0]
+        meshes = {s: build_mesh(case_for(kind, args.cells, s)) for s in seeds}
+        for rule in ("kawai", "calibrated"):
+            for nu_t in args.nu:
+                Es, nus = [], []
+                for s in seeds:
+                    case = case_for(kind, args.cells, s, poisson=nu_t, rule=rule)
+                    model = build_model(case, meshes[s])
+                    E, nu = uniaxial_moduli(model, core=args.core)
+                    Es.extend(E / E_REF)
+                    nus.extend(nu)
+                mat = model.materials[0]
+                print(f"| {kind} | {rule} | {nu_t} | {mat['e0'] / E_REF:.4f} | "
+                      f"{mat['alpha']:.4f} | {np.mean(Es):.4f} ± {np.std(Es):.4f} | "
+                      f"{np.mean(nus):.4f} ± {np.std(nus):.4f} |")
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("what", choices=["alpha", "check"])
+    p.add_argument("--cells", type=int, default=1000)
+    p.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
+    p.add_argument("--core", type=float, default=0.25,
+                   help="fraction of the length trimmed at each loaded end for the fit")
+    p.add_argument("--nu", type=float, nargs="+", default=[0.0, 0.1, 0.2])
+    args = p.parse_args()
+    t0 = time.perf_counter()
+    (alpha_sweep if args.what == "alpha" else check)(args)
+    print(f"# {time.perf_counter() - t0:.0f} s")
+
+
+if __name__ == "__main__":
+    main()
