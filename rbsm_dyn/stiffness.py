@@ -49,7 +49,7 @@ from .physics.rotation import quat_matrix_np
 __all__ = ["stiffness_matrix", "mass_matrix", "model_load", "solve_linear",
            "rigid_modes", "spring_forces", "uniaxial_moduli"]
 
-_CHUNK = 65536      # spring points per assembly chunk (bounds memory: ~1 kB each)
+_CHUNK = 65536      # spring points per assembly chunk (bounds memory: a few kB each)
 
 
 def _skew(r):
@@ -124,7 +124,8 @@ def mass_matrix(model):
     centroid for the rotations (R from body_quat0)."""
     n = model.n_bodies
     R = quat_matrix_np(model.body_quat0[:n])
-    J = np.einsum("nik,nk,njk->nij", R, model.body_inertia, R)   # R diag(I) Rᵀ
+    # world inertia of a rigid body from its principal moments: R diag(I) Rᵀ
+    J = np.einsum("nik,nk,njk->nij", R, model.body_inertia, R)
     blocks = np.zeros((n, 6, 6))
     blocks[:, [0, 1, 2], [0, 1, 2]] = model.body_mass[:, None]
     blocks[:, 3:, 3:] = J
