@@ -281,7 +281,7 @@ class Solver(_Node):
     load_steps: int = Field(default=10, ge=1)
     tolerance: float = Field(default=1e-6, gt=0)
     max_iterations: int = Field(default=200000, ge=1)
-    relaxation: Literal["local", "kinetic"] = "local"
+    relaxation: Literal["adaptive", "local"] = "adaptive"
     damping_factor: float = Field(default=0.7, ge=0, lt=1)
     threads: Optional[int] = Field(default=None, ge=1)
 

@@ -122,7 +122,7 @@ def test_static_variant_and_defaults():
     case = load_case_text(STATIC)
     s = case.solver
     assert (s.mode, s.load_steps, s.tolerance) == ("static", 10, 1e-6)
-    assert s.max_iterations == 200000 and s.relaxation == "local"
+    assert s.max_iterations == 200000 and s.relaxation == "adaptive"
     assert s.damping_factor == 0.7 and s.end_time is None
     load = case.loads[0]
     assert isinstance(load, GroupLoad) and load.force == [0, 0, -5.0e3]

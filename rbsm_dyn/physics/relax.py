@@ -2,9 +2,19 @@
 
 Fictitious masses and a spherical fictitious inertia per body (mass scaling:
 every body stable at a unit step, Underwood 1983, from Gershgorin row sums
-of the stiffness), and Cundall's local non-viscous damping (Cundall 1987;
-Itasca PFC/UDEC "local damping"): each force component is reduced by
-β|F| against the direction of the velocity, F_d = F − β|F| sign(v).
+of the stiffness), advanced at a unit step h = 1 with one of two dampings:
+
+* ADAPTIVE (default): viscous damping c = 2 ω_min, critical for the lowest
+  mode, with ω_min² re-estimated every iteration by the Rayleigh quotient
+  Δuᵀ(−Δr) / Δuᵀ M Δu of the motion since the start of the load step
+  (Underwood, "Dynamic relaxation", in Computational Methods for Transient
+  Analysis, 1983, eqs. 6–8; Δr is the change of the unbalanced force).
+  Velocity update (central difference, h = 1):
+      v ← ((2 − c) v + 2 r/m) / (2 + c).
+* LOCAL: Cundall's local non-viscous damping (Cundall 1987; Itasca PFC
+  "local damping"): each force component is reduced by β|F| against the
+  velocity, F_d = F − β|F| sign(v).  Robust for frictional and softening
+  problems, slow for smooth elastic ones.
 """
 import math
 
@@ -17,92 +27,136 @@ from .springs import elastic_spring_pass
 
 JIT = dict(cache=True, nogil=True, fastmath=False, error_model="numpy")
 
+ADAPTIVE, LOCAL = 0, 1
+
 
 @nb.njit(inline="always", **JIT)
 def _sign(x):
     return 1.0 if x > 0.0 else (-1.0 if x < 0.0 else 0.0)
 
 
+@nb.njit(inline="always", **JIT)
+def _damped(v, f, m, kind, beta, c):
+    """New (fictitious) velocity from v under force f, mass m, unit step."""
+    if kind == LOCAL:
+        return v + (f - beta * abs(f) * _sign(v)) / m
+    return ((2.0 - c) * v + 2.0 * f / m) / (2.0 + c)
+
+
 @nb.njit(parallel=True, **JIT)
-def relax_body_pass(lam, beta, ground, csr_ptr, csr_spring, csr_sign, spring_bodies,
-                    spring_force, spring_mid, body_mass_real, fict_mass, fict_inertia,
-                    body_pos, body_pos0, body_quat, body_quat0, body_vel, body_angmom,
-                    body_rot, body_dq, body_fext, body_mext, gravity,
-                    dof_kind, dof_value, arm_length, body_resid, body_reaction):
+def relax_body_pass(lam, kind, beta, c, reset, ground, csr_ptr, csr_spring, csr_sign,
+                    spring_bodies, spring_force, spring_mid, body_mass_real, fict_mass,
+                    fict_inertia, body_pos, body_pos0, body_quat, body_quat0, body_vel,
+                    body_angmom, body_rot, body_dq, body_fext, body_mext, gravity,
+                    dof_kind, dof_value, arm_length, body_resid, body_reaction,
+                    body_du, body_r0, body_num, body_den):
     """One unit step of damped fictitious dynamics at load factor lam.
 
     body_resid[i] gets |unbalanced force|² + |unbalanced moment/arm_length|²
-    over the free components; body_reaction the support/constraint force."""
+    over the free components; body_reaction the support/constraint force.
+    body_du (N, 6): displacement and rotation since the load step began;
+    body_r0 (N, 6): unbalanced force then (set when reset); body_num,
+    body_den (N,): this body's part of the Rayleigh quotient."""
     for i in nb.prange(fict_mass.shape[0]):
         g = gather(i, ground, csr_ptr, csr_spring, csr_sign, spring_bodies, spring_force,
                    spring_mid, body_pos)
         m = fict_mass[i]
         res = 0.0
+        num = 0.0
+        den = 0.0
         for k in range(3):
             f = g[k] + lam * (body_fext[i, k] + body_mass_real[i] * gravity[k])
-            kind = dof_kind[i, k]
-            if kind == FREE:
+            dk = dof_kind[i, k]
+            if dk == FREE:
                 res += f * f
-                v = body_vel[i, k]
-                v += (f - beta * abs(f) * _sign(v)) / m
+                if reset:
+                    body_r0[i, k] = f
+                    body_du[i, k] = 0.0
+                du = body_du[i, k]
+                num -= du * (f - body_r0[i, k])
+                den += m * du * du
+                v = _damped(body_vel[i, k], f, m, kind, beta, c)
                 body_vel[i, k] = v
                 body_pos[i, k] += v
+                body_du[i, k] = du + v
                 body_reaction[i, k] = g[6 + k]
             else:
                 body_reaction[i, k] = g[6 + k] - f
                 body_vel[i, k] = 0.0
-                if kind == DISPLACEMENT:
+                if dk == DISPLACEMENT:
                     body_pos[i, k] = body_pos0[i, k] + lam * dof_value[i, k]
         inertia = fict_inertia[i]
-        w0 = w1 = w2 = 0.0
         for k in range(3):
             if dof_kind[i, 3 + k] == FIXED:
                 body_angmom[i, k] = 0.0
                 continue
             t = g[3 + k] + lam * body_mext[i, k]
             res += (t / arm_length) ** 2
-            L = body_angmom[i, k]
-            L += t - beta * abs(t) * _sign(L)
-            body_angmom[i, k] = L
+            if reset:
+                body_r0[i, 3 + k] = t
+                body_du[i, 3 + k] = 0.0
+            dth = body_du[i, 3 + k]
+            num -= dth * (t - body_r0[i, 3 + k])
+            den += inertia * dth * dth
+            body_angmom[i, k] = _damped(body_angmom[i, k], t, 1.0, kind, beta, c)
         w0 = body_angmom[i, 0] / inertia
         w1 = body_angmom[i, 1] / inertia
         w2 = body_angmom[i, 2] / inertia
+        body_du[i, 3] += w0
+        body_du[i, 4] += w1
+        body_du[i, 5] += w2
         ang = math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
         if ang > 0.0:
             # exact rotation by ω·1 about the world axis ω/|ω|: q <- exp(ω/2) ⊗ q
             s = math.sin(0.5 * ang) / ang
             q = body_quat[i]
-            a, b, c, d = quat_mul(math.cos(0.5 * ang), w0 * s, w1 * s, w2 * s,
-                                  q[0], q[1], q[2], q[3])
-            n = math.sqrt(a * a + b * b + c * c + d * d)
+            a, b, cc, d = quat_mul(math.cos(0.5 * ang), w0 * s, w1 * s, w2 * s,
+                                   q[0], q[1], q[2], q[3])
+            n = math.sqrt(a * a + b * b + cc * cc + d * d)
             q[0] = a / n
             q[1] = b / n
-            q[2] = c / n
+            q[2] = cc / n
             q[3] = d / n
             refresh_rotation(i, body_quat, body_quat0, body_rot, body_dq)
         body_resid[i] = res
+        body_num[i] = num
+        body_den[i] = den
 
 
 @nb.njit(**JIT)
-def run_relax(n_iter, lam, beta, ground,
+def run_relax(n_iter, lam, kind, beta, c, reset, ground,
               spring_bodies, spring_arm_a, spring_arm_b, spring_frame0, spring_k,
               spring_force, spring_mid, csr_ptr, csr_spring, csr_sign,
               body_mass_real, fict_mass, fict_inertia, body_pos, body_pos0, body_quat,
               body_quat0, body_vel, body_angmom, body_rot, body_dq, body_fext, body_mext,
-              gravity, dof_kind, dof_value, arm_length, body_resid, body_reaction):
-    """n_iter relaxation steps inside compiled code; returns the kinetic energy
-    of the fictitious motion after the last one."""
-    for _ in range(n_iter):
+              gravity, dof_kind, dof_value, arm_length, body_resid, body_reaction,
+              body_du, body_r0, body_num, body_den):
+    """n_iter relaxation steps inside compiled code.  `reset` starts a load
+    step (Δu = 0, r0 = r).  Returns (kinetic energy of the fictitious motion
+    after the last step, the damping coefficient c to continue with)."""
+    for it in range(n_iter):
+        first = reset and it == 0
         elastic_spring_pass(spring_bodies, spring_arm_a, spring_arm_b, spring_frame0,
                             spring_k, body_pos, body_rot, body_dq, spring_force, spring_mid)
-        relax_body_pass(lam, beta, ground, csr_ptr, csr_spring, csr_sign, spring_bodies,
-                        spring_force, spring_mid, body_mass_real, fict_mass, fict_inertia,
-                        body_pos, body_pos0, body_quat, body_quat0, body_vel, body_angmom,
-                        body_rot, body_dq, body_fext, body_mext, gravity, dof_kind,
-                        dof_value, arm_length, body_resid, body_reaction)
+        relax_body_pass(lam, kind, beta, c, first, ground, csr_ptr, csr_spring,
+                        csr_sign, spring_bodies, spring_force, spring_mid, body_mass_real,
+                        fict_mass, fict_inertia, body_pos, body_pos0, body_quat, body_quat0,
+                        body_vel, body_angmom, body_rot, body_dq, body_fext, body_mext,
+                        gravity, dof_kind, dof_value, arm_length, body_resid, body_reaction,
+                        body_du, body_r0, body_num, body_den)
+        if kind == ADAPTIVE:
+            # Rayleigh quotient of the motion so far -> ω_min², c = 2 ω_min
+            # (Underwood 1983); serial sum so that any thread count agrees
+            num = 0.0
+            den = 0.0
+            for i in range(body_num.shape[0]):
+                num += body_num[i]
+                den += body_den[i]
+            if den > 0.0 and num > 0.0:
+                c = min(2.0 * math.sqrt(num / den), 1.9)
     ek = 0.0
     for i in range(fict_mass.shape[0]):
         for k in range(3):
             ek += 0.5 * fict_mass[i] * body_vel[i, k] ** 2
             ek += 0.5 * body_angmom[i, k] ** 2 / fict_inertia[i]
-    return ek
+    return ek, c

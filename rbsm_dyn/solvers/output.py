@@ -62,7 +62,7 @@ class Recorder:
         self.writer = w = HistoryWriter(
             path, creator="rbsm_dyn", creator_version=__version__,
             parameters={"case_yaml": case.source_text,
-                        "resolved_case": json.dumps(case.resolved()),
+                        "case": json.dumps(case.resolved()),
                         "versions": json.dumps(versions()),
                         "threads": str(threads),
                         "materials": json.dumps(model.materials)})

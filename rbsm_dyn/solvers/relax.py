@@ -2,7 +2,8 @@
 
 For load step j = 1..n the loads and prescribed displacements are scaled by
 λ_j = j/n and the damped fictitious dynamics (physics/relax.py) iterate
-until the unbalanced-force ratio ‖r‖ / (‖F_applied‖ + ‖reactions‖) is at most
+until the unbalanced-force ratio ‖r‖ / (‖F_applied‖ + ‖M_applied‖/ℓ +
+‖reactions‖) is at most (moments enter divided by ℓ, the median spring arm)
 `solver.tolerance` and the fictitious kinetic energy is at most 1e-8 × the
 external work (VERIFICATION.md, general).  Each converged load step is one
 history frame, whose `time` is the load factor λ (dimensionless) and `step`
@@ -14,7 +15,7 @@ import time as _time
 import numpy as np
 
 from ..model import dof_row_sums, new_state
-from ..physics.relax import run_relax
+from ..physics.relax import ADAPTIVE, LOCAL, run_relax
 from .explicit import RunFailed, synchronize  # noqa: F401  (re-exported)
 
 GERSHGORIN_SAFETY = 0.81   # λ_max(M⁻¹K) ≤ 4·0.81 at a unit step
@@ -38,8 +39,12 @@ def run(case, model, recorder, *, max_steps=None, progress=None, check_every=200
     state = new_state(model)
     state.dt = 1.0
     m = model
-    beta = sol.damping_factor
+    kind = LOCAL if sol.relaxation == "local" else ADAPTIVE
+    beta = sol.damping_factor if kind == LOCAL else 0.0
     fm, fi = fictitious_masses(m, beta)
+    n = m.n_bodies
+    du, r0 = np.zeros((n, 6)), np.zeros((n, 6))
+    num, den = np.zeros(n), np.zeros(n)
     arm = float(np.median(np.linalg.norm(m.spring_arm_a, axis=1))) or 1.0
     resid = np.zeros(m.n_bodies)
     n_steps = sol.load_steps
@@ -53,17 +58,18 @@ def run(case, model, recorder, *, max_steps=None, progress=None, check_every=200
     for j in range(1, n_steps + 1):
         lam = j / n_steps
         it = 0
+        c = 0.0
         while True:
             k = check_every
             if max_steps is not None:
                 k = min(k, max(0, int(max_steps) - total))
-            ek = run_relax(k, lam, beta, m.ground, m.spring_bodies, m.spring_arm_a,
+            ek, c = run_relax(k, lam, kind, beta, c, it == 0, m.ground, m.spring_bodies, m.spring_arm_a,
                            m.spring_arm_b, m.spring_frame0, m.spring_k, state.spring_force,
                            state.spring_mid, m.csr_ptr, m.csr_spring, m.csr_sign,
                            m.body_mass, fm, fi, state.body_pos, m.body_pos0, state.body_quat,
                            m.body_quat0, state.body_vel, state.body_angmom, state.body_rot,
                            state.body_dq, m.body_fext, m.body_mext, m.gravity, m.dof_kind,
-                           m.dof_value, arm, resid, state.body_reaction)
+                           m.dof_value, arm, resid, state.body_reaction, du, r0, num, den)
             it += k
             total += k
             if not np.all(np.isfinite(state.body_pos)):
@@ -71,10 +77,10 @@ def run(case, model, recorder, *, max_steps=None, progress=None, check_every=200
                 recorder.fail(msg)
                 raise RunFailed(msg)
             applied = lam * (m.body_fext + m.body_mass[:, None] * m.gravity)
-            ref = np.sqrt(np.sum(applied ** 2)) + np.sqrt(np.sum(state.body_reaction ** 2))
+            ref = (np.sqrt(np.sum(applied ** 2)) + lam * np.sqrt(np.sum(m.body_mext ** 2)) / arm
+                   + np.sqrt(np.sum(state.body_reaction ** 2)))
             ratio = np.sqrt(resid.sum()) / max(ref, 1e-300)
-            u = state.body_pos[:-1] - m.body_pos0[:-1]
-            work = abs(np.sum(applied * u)) + abs(np.sum(state.body_reaction[disp_mask] * u[disp_mask]))
+            work = abs(load_work(m, state, lam))
             done = ratio <= sol.tolerance and ek <= 1e-8 * max(work, 1e-300)
             if progress:
                 progress.update(j - 1 + min(1.0, sol.tolerance / max(ratio, 1e-300)), lam, ratio,
@@ -98,6 +104,20 @@ def run(case, model, recorder, *, max_steps=None, progress=None, check_every=200
                 converged=True)
 
 
+def load_work(model, state, lam):
+    """Work of the loads at factor lam and of prescribed displacements on the
+    current displacement (static: F·u + M·θ, exact for a linear response
+    only up to the factor ½ that the strain energy carries) [J]."""
+    from .output import rotation_vectors
+    u = state.body_pos[:-1] - model.body_pos0[:-1]
+    applied = lam * (model.body_fext + model.body_mass[:, None] * model.gravity)
+    disp = model.dof_kind[:, :3] == 3
+    work = float(np.sum(applied * u) + np.sum(state.body_reaction[disp] * u[disp]))
+    if np.any(model.body_mext):
+        work += float(np.sum(lam * model.body_mext * rotation_vectors(model, state.body_quat)))
+    return work
+
+
 def record_frame(recorder, model, state, step, lam, ratio):
     """One frame of a static solution at load factor lam (velocities zero)."""
     from .explicit import spring_pass
@@ -105,9 +125,7 @@ def record_frame(recorder, model, state, step, lam, ratio):
     n = model.n_bodies
     zero = np.zeros((n, 3))
     u = state.body_pos[:-1] - model.body_pos0[:-1]
-    applied = lam * (model.body_fext + model.body_mass[:, None] * model.gravity)
-    disp = model.dof_kind[:, :3] == 3
-    work = float(np.sum(applied * u) + np.sum(state.body_reaction[disp] * u[disp]))
+    work = load_work(model, state, lam)
     obs = {"kinetic": 0.0, "strain": recorder.strain_energy(state), "external_work": work,
            "damping": 0.0, "n_broken": 0.0, "residual": float(ratio)}
     recorder.append(state, step, lam, zero, zero, obs, np.full(n, lam))
