@@ -94,11 +94,10 @@ def load_amplitude(model, t):
 
 
 def external_work(model, state, w_steps):
-    """Work of loads and constraints accumulated per step, plus gravity's
-    exact work Σ m g·(x − x0) (constant field)."""
-    grav = float(np.sum(model.body_mass[:, None] * model.gravity *
-                        (state.body_pos[:-1] - model.body_pos0[:-1])))
-    return float(np.sum(w_steps)) + grav
+    """Work of loads, gravity and constraints since t = 0 [J], accumulated
+    per step as f_n · v_{n+1/2} dt (for a constant force such as gravity this
+    is exactly f · (x − x0), since x_{n+1} − x_n = v_{n+1/2} dt)."""
+    return float(np.sum(w_steps))
 
 
 def run(case, model, recorder, *, max_steps=None, progress=None, chunk_steps=None):
@@ -110,8 +109,6 @@ def run(case, model, recorder, *, max_steps=None, progress=None, chunk_steps=Non
     state.dt = dt
     apply_initial(case, model, state)
     start_half_step(model, state)
-    # gravity's work is exact; exclude it from the per-step accumulation
-    grav_model = model
     alpha = float(getattr(getattr(case.solver, "damping", None), "alpha", 0.0) or 0.0)
     end_time = case.solver.end_time
     n_total = int(np.ceil(end_time / dt - 1e-9))
@@ -128,7 +125,7 @@ def run(case, model, recorder, *, max_steps=None, progress=None, chunk_steps=Non
         vel, ang = synchronize(model, state)
         ek = recorder.kinetic(vel, ang, state)
         obs = {"kinetic": ek, "strain": recorder.strain_energy(state),
-               "external_work": external_work(grav_model, state, state.body_work),
+               "external_work": external_work(model, state, state.body_work),
                "damping": float(np.sum(state.body_damp)), "n_broken": 0.0}
         return recorder.append(state, state.step, state.time, vel, ang, obs,
                                load_amplitude(model, state.time))
