@@ -94,14 +94,11 @@ def main(argv=None):
 
 def _run(case, model, args, threads):
     from .case import CaseError
-    from .solvers import explicit, relax
+    from .solvers import explicit, linear, modal, relax
     from .solvers.output import Recorder
     out = args.out or case.output.file
-    extra = {"residual": "1"} if case.solver.mode == "static" else {}
-    if case.solver.mode not in ("dynamic", "static"):
-        print(f"rbsm_dyn: {case.error(('solver', 'mode'), 'mode ' + case.solver.mode + ' is not implemented yet (issue 3)')}",
-              file=sys.stderr)
-        return 2
+    extra = {"static": {"residual": "1"}, "linear": {"residual": "1"},
+             "modal": {"frequency": "Hz"}}.get(case.solver.mode, {})
     rec = Recorder(case, model, out, threads=threads, extra_observables=extra)
     progress = Progress(not args.quiet and sys.stderr.isatty() or (not args.quiet and os.environ.get("RBSM_PROGRESS")))
     t0 = time.perf_counter()
@@ -110,9 +107,18 @@ def _run(case, model, args, threads):
             res = explicit.run(case, model, rec, max_steps=args.max_steps, progress=progress)
             summary = (f"{res['steps']} steps, dt = {res['dt']:.4g} s "
                        f"(estimate {res['dt_estimate']:.4g} s)")
-        else:
+        elif case.solver.mode == "static":
             res = relax.run(case, model, rec, max_steps=args.max_steps, progress=progress)
             summary = f"{len(res['iterations'])} load steps, {sum(res['iterations'])} iterations"
+        elif case.solver.mode == "linear":
+            res = linear.run(case, model, rec)
+            how = (f"CG, {res['iterations']} iterations" if res["method"] == "cg"
+                   else "direct")
+            summary = (f"K U = F ({res['n_free']} DOFs, {how}, residual {res['residual']:.2g}; "
+                       f"assembly {res['assembly_time']:.2f} s, solve {res['solve_time']:.2f} s)")
+        else:
+            res = modal.run(case, model, rec)
+            summary = (f"{res['modes']} modes, ω_max = {res['omega_max']:.4g} rad/s")
     except explicit.RunFailed as exc:
         progress.close()
         rec.close()
@@ -132,6 +138,8 @@ def _run(case, model, args, threads):
         return 130
     progress.close()
     rec.close()
+    if case.solver.mode == "modal":
+        modal.write_modes_group(out, res["result"])
     if not args.quiet:
         print(f"rbsm_dyn: {case.name}: {model.n_bodies} bodies, {model.n_springs} springs, "
               f"{summary}, {time.perf_counter() - t0:.2f} s -> {out}")

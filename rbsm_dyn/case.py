@@ -284,11 +284,13 @@ class Solver(_Node):
     relaxation: Literal["adaptive", "local"] = "adaptive"
     damping_factor: float = Field(default=0.7, ge=0, lt=1)
     threads: Optional[int] = Field(default=None, ge=1)
+    modes: int = Field(default=6, ge=1)
 
 
 DYNAMIC_KEYS = ("end_time", "dt", "dt_safety", "damping")
 STATIC_KEYS = ("load_steps", "tolerance", "max_iterations", "relaxation",
                "damping_factor")
+MODAL_KEYS = ("modes",)
 
 
 class Probe(_Node):
@@ -758,6 +760,8 @@ def _check(case: Case) -> None:
         check_only(s, DYNAMIC_KEYS, ("solver",), f"in mode {s.mode}")
         if s.mode != "static":
             check_only(s, STATIC_KEYS, ("solver",), f"in mode {s.mode}")
+    if s.mode != "modal":
+        check_only(s, MODAL_KEYS, ("solver",), f"in mode {s.mode}")
 
     out = case.output
     if out.interval is not None:
