@@ -15,6 +15,9 @@ import numpy as np
 from .calibration import stiffness_pair
 from .mesh import block_mesh, principal_axes, spring_points, voronoi_mesh
 from .physics.integrate import DISPLACEMENT, FIXED, VELOCITY, refresh_all_rotations
+from .physics.laws import (BROKEN, CONTACT_OFF, CRITERIA, ELASTIC, N_PARAMS, P_COH, P_CRIT,
+                           P_EPSCR, P_FT, P_GF, P_MU, P_RUPT, P_SY, P_TANPHI, P_TENSION,
+                           RUPTURE_KINDS)
 from .physics.rotation import matrix_to_quat
 
 IDX = np.int32
@@ -38,6 +41,10 @@ class Model:
       [N/m] = (k_n, k_s, k_t) × area; spring_point, spring_normal (S, 3);
       spring_area, spring_h (S,) [m², m]; spring_face (S,) int32 (internal
       face id, or −1 − boundary face id for supports).
+    Spring laws (physics/laws/): spring_law (S,) int32 row of law_params
+      (n_laws, N_PARAMS) [Pa, 1, J/m²]; row 0 is purely elastic (supports);
+      spring_state0 (S,) int8 initial state (cuts: 2, broken);
+      inelastic: bool, True when any law or cut needs the inelastic kernel.
     CSR body -> springs: csr_ptr (N+1,), csr_spring (K,), csr_sign (K,) (+1 a, −1 b).
     Constraints: dof_kind (N, 6) int8 (0 free, 1 fixed, 2 velocity, 3
       displacement), dof_value (N, 6), dof_hist (N, 6) int32.
@@ -78,6 +85,10 @@ class Model:
     materials: list
     mesh: object = field(repr=False)
     n_cut: int = 0
+    spring_law: np.ndarray = None
+    law_params: np.ndarray = None
+    spring_state0: np.ndarray = None
+    inelastic: bool = False
 
     @property
     def n_springs(self):
@@ -110,7 +121,11 @@ class State:
     the half step; body_angmom (N+1, 3) [kg m²/s] world, half step;
     body_rot (N+1, 3, 3), body_dq (N+1, 4) derived from body_quat;
     spring_force, spring_mid (S, 3); body_work, body_damp (N,) [J] accumulated;
-    body_reaction (N, 3) [N]; step (int), dt [s]."""
+    body_reaction (N, 3) [N]; step (int), dt [s].
+    Inelastic springs (length S when Model.inelastic, else 0):
+    spring_state (S,) int8; spring_dp (S, 3) [m] plastic gap or slip;
+    spring_kappa (S,) [m] largest opening; spring_dmg (S,) damage;
+    spring_wp, spring_wf (S,) [J] plastic and fracture dissipation."""
     body_pos: np.ndarray
     body_quat: np.ndarray
     body_vel: np.ndarray
@@ -122,6 +137,12 @@ class State:
     body_work: np.ndarray
     body_damp: np.ndarray
     body_reaction: np.ndarray
+    spring_state: np.ndarray = None
+    spring_dp: np.ndarray = None
+    spring_kappa: np.ndarray = None
+    spring_dmg: np.ndarray = None
+    spring_wp: np.ndarray = None
+    spring_wf: np.ndarray = None
     step: int = 0
     dt: float = 0.0
 
@@ -137,6 +158,13 @@ def new_state(model):
                body_rot=np.zeros((n + 1, 3, 3)), body_dq=np.zeros((n + 1, 4)),
                spring_force=np.zeros((s, 3)), spring_mid=np.zeros((s, 3)),
                body_work=np.zeros(n), body_damp=np.zeros(n), body_reaction=np.zeros((n, 3)))
+    si = s if model.inelastic else 0
+    st.spring_state = model.spring_state0.copy() if si else np.zeros(0, dtype=np.int8)
+    st.spring_dp = np.zeros((si, 3))
+    st.spring_kappa = np.zeros(si)
+    st.spring_dmg = np.zeros(si)
+    st.spring_wp = np.zeros(si)
+    st.spring_wf = np.zeros(si)
     refresh_all_rotations(n + 1, st.body_quat, model.body_quat0, st.body_rot, st.body_dq)
     return st
 
@@ -161,6 +189,51 @@ def _frames_from_normals(normal):
     t = np.cross(normal, s)
     R = np.stack([normal, s, t], axis=2)
     return np.array([matrix_to_quat(r) for r in R]) if len(R) else np.zeros((0, 4))
+
+
+def elastic_law_row():
+    """law_params row of a purely elastic spring that never breaks (supports)."""
+    row = np.zeros(N_PARAMS)
+    row[P_TENSION] = np.inf
+    row[P_MU] = CONTACT_OFF
+    return row
+
+
+def material_law_row(mat):
+    """law_params row of a case material (physics/laws/__init__.py columns).
+    A broken face is a contact with Coulomb friction `friction` (default 0)."""
+    row = elastic_law_row()
+    y = mat.yield_
+    if y is not None:
+        row[P_CRIT] = CRITERIA[y.criterion]
+        if y.criterion == "mohr_coulomb":
+            row[P_COH] = y.cohesion
+            row[P_TANPHI] = np.tan(np.radians(y.friction_angle))
+            row[P_TENSION] = np.inf if y.tension is None else y.tension
+        else:
+            row[P_SY] = y.stress
+    r = mat.rupture
+    if r is not None:
+        if r.strain is not None:
+            row[P_RUPT] = RUPTURE_KINDS["strain"]
+            row[P_EPSCR] = r.strain
+        else:
+            row[P_RUPT] = RUPTURE_KINDS["fracture_energy"]
+            row[P_FT] = r.tensile_strength
+            row[P_GF] = r.fracture_energy
+    row[P_MU] = mat.friction or 0.0
+    return row
+
+
+def strength_of(rows):
+    """A scalar strength per law row [Pa] to pick the weaker of two
+    materials: yield stress, cohesion, tensile strength, else infinite."""
+    rows = np.atleast_2d(rows)
+    out = np.full(len(rows), np.inf)
+    for col in (P_FT, P_COH, P_SY):
+        v = rows[:, col]
+        out = np.where(v > 0, np.minimum(out, v), out)
+    return out
 
 
 def _select(case, name, centroids):
@@ -196,19 +269,17 @@ def build_model(case, mesh=None):
         if getattr(g, "material", None):
             body_material[groups[name]] = mat_names.index(g.material)
     materials = []
+    law_rows = [elastic_law_row()]
     for k, name in enumerate(mat_names):
         mat = case.materials[name]
-        for key in ("yield_", "yield", "rupture", "friction"):
-            if getattr(mat, key, None) is not None:
-                raise case.error(("materials", name, key.rstrip("_")),
-                                 "nonlinear spring laws (yield, rupture, contact) are not "
-                                 "implemented yet")
         try:
             e0, alpha = stiffness_pair(mat.stiffness, case.mesh.kind, mat.young, mat.poisson)
         except ValueError as exc:
             raise case.error(("materials", name, "poisson"), str(exc)) from None
         materials.append(dict(name=name, density=mat.density, young=mat.young,
                               poisson=mat.poisson, stiffness=mat.stiffness, e0=e0, alpha=alpha))
+        law_rows.append(material_law_row(mat))
+    law_params = np.array(law_rows, dtype=float)
     dens = np.array([m["density"] for m in materials])[body_material]
     e0 = np.array([m["e0"] for m in materials])[body_material]
     alpha = np.array([m["alpha"] for m in materials])[body_material]
@@ -249,10 +320,15 @@ def build_model(case, mesh=None):
         inside = np.all((sp.point >= box[0]) & (sp.point <= box[1]), axis=1)
         keep &= ~((sa * sb < 0) & inside)
     n_cut = int((~keep).sum())
-    internal = dict(a=a[keep], b=b[keep], point=sp.point[keep], normal=nrm[keep],
-                    area=sp.weight[keep], h=(h_a + h_b)[keep],
-                    k=np.stack([kn, ks, ks], axis=1)[keep] * sp.weight[keep, None],
-                    frame=_frames_from_normals(nrm[keep]), face=f[keep].astype(IDX))
+    # law of each internal spring: the weaker of its two materials (row 1 + material)
+    ma = body_material[a]
+    mb = body_material[b]
+    weaker = np.where(strength_of(law_params[1 + ma]) <= strength_of(law_params[1 + mb]), ma, mb)
+    law = (1 + weaker).astype(IDX)
+    state0 = np.where(keep, ELASTIC, BROKEN).astype(np.int8)
+    internal = dict(a=a, b=b, point=sp.point, normal=nrm, area=sp.weight, h=h_a + h_b,
+                    k=np.stack([kn, ks, ks], axis=1) * sp.weight[:, None],
+                    frame=_frames_from_normals(nrm), face=f.astype(IDX), law=law, state0=state0)
 
     # support springs on domain faces (DESIGN.md §1: h = centroid-to-face distance)
     sup = []
@@ -289,7 +365,9 @@ def build_model(case, mesh=None):
                 k[:, c] = 0.0
         sup.append(dict(a=cell, b=np.full(len(cell), n), point=bsp.point,
                         normal=nrm_b, area=bsp.weight, h=h, k=k * bsp.weight[:, None],
-                        frame=np.tile(frame, (len(cell), 1)), face=(-1 - bf).astype(IDX)))
+                        frame=np.tile(frame, (len(cell), 1)), face=(-1 - bf).astype(IDX),
+                        law=np.zeros(len(cell), dtype=IDX),
+                        state0=np.zeros(len(cell), dtype=np.int8)))
 
     parts = [internal] + sup
     cat = {key: np.concatenate([p[key] for p in parts]) for key in internal}
@@ -384,7 +462,9 @@ def build_model(case, mesh=None):
         body_fext=fext, body_mext=mext, body_load_hist=load_hist, gravity=gravity,
         hist_ptr=np.asarray(hist_ptr, dtype=IDX), hist_t=np.asarray(hist_t, float),
         hist_a=np.asarray(hist_a, float), groups=groups, materials=materials, mesh=mesh,
-        n_cut=n_cut)
+        n_cut=n_cut, spring_law=cat["law"].astype(IDX), law_params=law_params,
+        spring_state0=cat["state0"].astype(np.int8),
+        inelastic=bool(n_cut > 0 or np.any(law_params[:, [P_CRIT, P_RUPT]] > 0)))
 
 
 def apply_initial(case, model, state):

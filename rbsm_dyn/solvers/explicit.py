@@ -19,6 +19,7 @@ import numpy as np
 
 from ..model import apply_initial, new_state
 from ..physics.integrate import run_dynamic, synchronized_momenta
+from ..physics.inelastic import inelastic_spring_pass, run_dynamic_inelastic
 from ..physics.springs import elastic_spring_pass
 
 
@@ -27,7 +28,19 @@ class RunFailed(RuntimeError):
 
 
 def spring_pass(model, state):
+    """Spring forces and midpoints at the current positions, for output and
+    synchronisation: an inelastic pass works on copies of the spring history,
+    so repeating it at an output step changes nothing."""
     m = model
+    if m.inelastic:
+        inelastic_spring_pass(m.spring_bodies, m.spring_arm_a, m.spring_arm_b, m.spring_frame0,
+                              m.spring_k, m.spring_area, m.spring_h, m.spring_law, m.law_params,
+                              state.body_pos, state.body_rot, state.body_dq,
+                              state.spring_force, state.spring_mid,
+                              state.spring_state.copy(), state.spring_dp.copy(),
+                              state.spring_kappa.copy(), state.spring_dmg.copy(),
+                              state.spring_wp.copy(), state.spring_wf.copy())
+        return
     elastic_spring_pass(m.spring_bodies, m.spring_arm_a, m.spring_arm_b, m.spring_frame0,
                         m.spring_k, state.body_pos, state.body_rot, state.body_dq,
                         state.spring_force, state.spring_mid)
@@ -45,17 +58,28 @@ def choose_dt(case, model):
 
 
 def advance(model, state, n_steps, damping_alpha=0.0):
-    """Advance the state by n_steps explicit steps (compiled loop)."""
+    """Advance the state by n_steps explicit steps (compiled loop; the
+    spring kernel is chosen once here: elastic, or inelastic when the model
+    has yield, rupture or cuts)."""
     m = model
-    state.step = run_dynamic(
-        n_steps, state.step, state.dt, m.ground,
-        m.spring_bodies, m.spring_arm_a, m.spring_arm_b, m.spring_frame0, m.spring_k,
-        state.spring_force, state.spring_mid, m.csr_ptr, m.csr_spring, m.csr_sign,
-        m.body_mass, m.body_inertia, state.body_pos, m.body_pos0, state.body_quat,
-        m.body_quat0, state.body_vel, state.body_angmom, state.body_rot, state.body_dq,
-        m.body_fext, m.body_mext, m.body_load_hist, m.gravity, damping_alpha,
-        m.dof_kind, m.dof_value, m.dof_hist, m.hist_ptr, m.hist_t, m.hist_a,
-        state.body_work, state.body_damp, state.body_reaction)
+    bodies = (m.csr_ptr, m.csr_spring, m.csr_sign,
+              m.body_mass, m.body_inertia, state.body_pos, m.body_pos0, state.body_quat,
+              m.body_quat0, state.body_vel, state.body_angmom, state.body_rot, state.body_dq,
+              m.body_fext, m.body_mext, m.body_load_hist, m.gravity, damping_alpha,
+              m.dof_kind, m.dof_value, m.dof_hist, m.hist_ptr, m.hist_t, m.hist_a,
+              state.body_work, state.body_damp, state.body_reaction)
+    if m.inelastic:
+        state.step = run_dynamic_inelastic(
+            n_steps, state.step, state.dt, m.ground,
+            m.spring_bodies, m.spring_arm_a, m.spring_arm_b, m.spring_frame0, m.spring_k,
+            m.spring_area, m.spring_h, m.spring_law, m.law_params,
+            state.spring_state, state.spring_dp, state.spring_kappa, state.spring_dmg,
+            state.spring_wp, state.spring_wf, state.spring_force, state.spring_mid, *bodies)
+    else:
+        state.step = run_dynamic(
+            n_steps, state.step, state.dt, m.ground,
+            m.spring_bodies, m.spring_arm_a, m.spring_arm_b, m.spring_frame0, m.spring_k,
+            state.spring_force, state.spring_mid, *bodies)
 
 
 def synchronize(model, state):
@@ -126,7 +150,7 @@ def run(case, model, recorder, *, max_steps=None, progress=None, chunk_steps=Non
         ek = recorder.kinetic(vel, ang, state)
         obs = {"kinetic": ek, "strain": recorder.strain_energy(state),
                "external_work": external_work(model, state, state.body_work),
-               "damping": float(np.sum(state.body_damp)), "n_broken": 0.0}
+               "damping": float(np.sum(state.body_damp))}
         return recorder.append(state, state.step, state.time, vel, ang, obs,
                                load_amplitude(model, state.time))
 

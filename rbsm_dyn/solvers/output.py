@@ -6,7 +6,12 @@ Energies (output steps only, never per step):
   strain    ½ Σ k δ² over spring points [J]
   external  work of loads, gravity and constraints since t = 0 [J]
   damping   energy dissipated by mass-proportional damping [J]
-Balance: kinetic + strain + damping = kinetic(0) + strain(0) + external.
+  plastic   dissipated by yield and by friction on closed cracks [J]
+  fracture  dissipated by rupture and softening [J]
+Balance: kinetic + strain + damping + plastic + fracture
+         = kinetic(0) + strain(0) + external.
+Cracks: n_broken (springs broken, open or in contact) and crack_area [m²]
+(their area); spring states per frame in springs/state when asked.
 """
 import json
 
@@ -15,6 +20,8 @@ import numpy as np
 from .. import __version__
 from ..io.history import HistoryWriter
 from ..physics.rotation import quat_matrix_np, quat_mul_np
+from ..physics.inelastic import inelastic_strain_energy
+from ..physics.laws import BROKEN
 from ..physics.springs import elastic_energy, spring_local_gap
 
 FIELD_SERIES = {
@@ -92,7 +99,8 @@ class Recorder:
                 tail = (m.n_bodies,) + tail
             w.add_series(path_, tail, dt, unit)
         self.observables = {"kinetic": "J", "strain": "J", "external_work": "J",
-                            "damping": "J", "n_broken": "1"}
+                            "damping": "J", "plastic": "J", "fracture": "J",
+                            "n_broken": "1", "crack_area": "m2"}
         self.observables.update(dict(extra_observables))
         for name, unit in self.observables.items():
             w.add_series(f"observables/{name}", (), "f8", unit)
@@ -105,7 +113,21 @@ class Recorder:
         m = self.model
         spring_local_gap(m.spring_bodies, m.spring_arm_a, m.spring_arm_b, m.spring_frame0,
                          state.body_pos, state.body_rot, state.body_dq, self._delta)
+        if m.inelastic:
+            return inelastic_strain_energy(m.spring_k, self._delta, state.spring_state,
+                                           state.spring_dp, state.spring_dmg)
         return elastic_energy(m.spring_k, self._delta)
+
+    def spring_observables(self, state):
+        """Dissipated energies and crack measures of the springs now."""
+        m = self.model
+        if not m.inelastic:
+            return {"plastic": 0.0, "fracture": 0.0, "n_broken": 0.0, "crack_area": 0.0}
+        broken = state.spring_state >= BROKEN
+        return {"plastic": float(np.sum(state.spring_wp)),
+                "fracture": float(np.sum(state.spring_wf)),
+                "n_broken": float(np.count_nonzero(broken)),
+                "crack_area": float(np.sum(m.spring_area[broken]))}
 
     def probe_values(self, state, vel, omega, t, amp_load):
         m = self.model
@@ -144,10 +166,12 @@ class Recorder:
             elif name == "angular_velocity":
                 values[path_] = omega
             elif name == "spring_state":
-                values[path_] = np.zeros(m.n_springs, dtype=np.int8)
+                values[path_] = (state.spring_state if m.inelastic
+                                 else np.zeros(m.n_springs, dtype=np.int8))
             elif name == "spring_force":
                 values[path_] = state.spring_force
-        obs = dict(observables)
+        obs = self.spring_observables(state)
+        obs.update(observables)
         obs.update(self.probe_values(state, vel, omega, time, amp_load))
         for name, val in obs.items():
             values[f"observables/{name}"] = val

@@ -127,5 +127,5 @@ def record_frame(recorder, model, state, step, lam, ratio):
     u = state.body_pos[:-1] - model.body_pos0[:-1]
     work = load_work(model, state, lam)
     obs = {"kinetic": 0.0, "strain": recorder.strain_energy(state), "external_work": work,
-           "damping": 0.0, "n_broken": 0.0, "residual": float(ratio)}
+           "damping": 0.0, "residual": float(ratio)}
     recorder.append(state, step, lam, zero, zero, obs, np.full(n, lam))

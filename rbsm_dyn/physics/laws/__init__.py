@@ -1,0 +1,32 @@
+"""Spring laws, one module per family, registered under the names the case
+file uses (STYLE.md 0):
+
+* plastic.py  `yield: {criterion: normal | tresca | von_mises | mohr_coulomb}`
+* rupture.py  `rupture: {strain}` (sudden) or `{fracture_energy, tensile_strength}` (softening)
+* contact.py  broken springs: compression only, Coulomb friction `friction: μ`
+
+A spring's law is a row of the table `law_params (n_laws, N_PARAMS)`
+(columns below), chosen per spring by `spring_law (S,) int32`; the row is
+built once per run from the materials of the spring's two bodies
+(model.py).  Stresses are per unit area [Pa]; a kernel multiplies by the
+spring's area.  Spring states (history `springs/state`): 0 elastic,
+1 yielded, 2 broken (open), 3 contact (broken and closed).
+"""
+from .contact import CONTACT_OFF, contact_traction  # noqa: F401
+from .plastic import CRITERIA, plastic_return  # noqa: F401
+from .rupture import RUPTURE_KINDS  # noqa: F401
+
+ELASTIC, YIELDED, BROKEN, CONTACT = 0, 1, 2, 3
+
+# columns of law_params
+P_CRIT = 0        # yield criterion id (plastic.CRITERIA), 0: none
+P_SY = 1          # yield stress σy [Pa] (normal, tresca, von_mises)
+P_COH = 2         # cohesion c [Pa] (mohr_coulomb)
+P_TANPHI = 3      # tan φ (mohr_coulomb)
+P_TENSION = 4     # tension cut-off [Pa] (mohr_coulomb; inf if none)
+P_RUPT = 5        # rupture kind id (rupture.RUPTURE_KINDS), 0: none
+P_EPSCR = 6       # rupture strain ε_cr (strain)
+P_FT = 7          # tensile strength f_t [Pa] (softening)
+P_GF = 8          # fracture energy G_f [J/m²] (softening)
+P_MU = 9          # Coulomb friction μ of a broken face
+N_PARAMS = 10
