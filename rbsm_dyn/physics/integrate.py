@@ -53,7 +53,8 @@ def gather(i, ground, csr_ptr, csr_spring, csr_sign, spring_bodies, spring_force
     F0 = F1 = F2 = M0 = M1 = M2 = S0 = S1 = S2 = 0.0
     x0, x1, x2 = body_pos[i, 0], body_pos[i, 1], body_pos[i, 2]
     for k in range(csr_ptr[i], csr_ptr[i + 1]):
-        s = csr_spring[k]
+        # spring ids are never negative: unsigned skips Numba's wraparound code
+        s = np.uint64(csr_spring[k])
         sg = csr_sign[k]
         f0 = sg * spring_force[s, 0]
         f1 = sg * spring_force[s, 1]
@@ -74,14 +75,28 @@ def gather(i, ground, csr_ptr, csr_spring, csr_sign, spring_bodies, spring_force
     return F0, F1, F2, M0, M1, M2, S0, S1, S2
 
 
+@nb.njit(inline="always", **JIT)
+def _inv_inertia_world(R, inertia, r, c):
+    """Entry (r, c) of A = R I⁻¹ Rᵀ, the world inverse inertia."""
+    return (R[r, 0] * R[c, 0] / inertia[0] + R[r, 1] * R[c, 1] / inertia[1]
+            + R[r, 2] * R[c, 2] / inertia[2])
+
+
 @nb.njit(**JIT)
 def constrain_rotation(i, dof_kind, R, inertia, L):
     """Make the world angular velocity ω = R I⁻¹ Rᵀ L zero in the fixed world
     components by a reaction moment along those axes: solve A_cc λ = −(A L)_c,
-    L += Σ λ_c e_c (A = R I⁻¹ Rᵀ)."""
+    L += Σ λ_c e_c (A = R I⁻¹ Rᵀ).  One or two fixed components are solved in
+    closed form (A_cc is 1×1 or 2×2, symmetric positive definite): nothing is
+    allocated inside the parallel body loop."""
     nfix = 0
+    c0 = c1 = 0
     for c in range(3):
         if dof_kind[i, 3 + c] == FIXED:
+            if nfix == 0:
+                c0 = c
+            else:
+                c1 = c
             nfix += 1
     if nfix == 0:
         return
@@ -90,26 +105,22 @@ def constrain_rotation(i, dof_kind, R, inertia, L):
         L[1] = 0.0
         L[2] = 0.0
         return
-    A = np.empty((3, 3))
-    for r in range(3):
-        for c in range(3):
-            A[r, c] = (R[r, 0] * R[c, 0] / inertia[0] + R[r, 1] * R[c, 1] / inertia[1]
-                       + R[r, 2] * R[c, 2] / inertia[2])
-    idx = np.empty(nfix, dtype=np.int64)
-    n = 0
-    for c in range(3):
-        if dof_kind[i, 3 + c] == FIXED:
-            idx[n] = c
-            n += 1
-    Acc = np.empty((nfix, nfix))
-    rhs = np.empty(nfix)
-    for r in range(nfix):
-        rhs[r] = -(A[idx[r], 0] * L[0] + A[idx[r], 1] * L[1] + A[idx[r], 2] * L[2])
-        for c in range(nfix):
-            Acc[r, c] = A[idx[r], idx[c]]
-    lam = np.linalg.solve(Acc, rhs)
-    for r in range(nfix):
-        L[idx[r]] += lam[r]
+    r0 = -(_inv_inertia_world(R, inertia, c0, 0) * L[0]
+           + _inv_inertia_world(R, inertia, c0, 1) * L[1]
+           + _inv_inertia_world(R, inertia, c0, 2) * L[2])
+    a00 = _inv_inertia_world(R, inertia, c0, c0)
+    if nfix == 1:
+        L[c0] += r0 / a00
+        return
+    r1 = -(_inv_inertia_world(R, inertia, c1, 0) * L[0]
+           + _inv_inertia_world(R, inertia, c1, 1) * L[1]
+           + _inv_inertia_world(R, inertia, c1, 2) * L[2])
+    a01 = _inv_inertia_world(R, inertia, c0, c1)
+    a11 = _inv_inertia_world(R, inertia, c1, c1)
+    # Cramer's rule for the 2×2 SPD system
+    det = a00 * a11 - a01 * a01
+    L[c0] += (r0 * a11 - a01 * r1) / det
+    L[c1] += (a00 * r1 - a01 * r0) / det
 
 
 @nb.njit(**JIT)

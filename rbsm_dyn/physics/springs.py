@@ -26,11 +26,19 @@ JIT = dict(cache=True, nogil=True, fastmath=False, error_model="numpy")
 
 
 @nb.njit(inline="always", **JIT)
-def gap_and_frame(s, spring_bodies, spring_arm_a, spring_arm_b, spring_frame0,
-                  body_pos, body_rot, body_dq):
-    """World gap d, midpoint m and spring frame F (columns n, s, t) of spring s.
+def gap_and_scaled_frame(s, spring_bodies, spring_arm_a, spring_arm_b, spring_frame0,
+                         body_pos, body_rot, body_dq):
+    """World gap d, midpoint m, scaled spring frame G = n2·F (columns n, s, t)
+    and the scale n2 of spring s.
 
-    Returns (d0, d1, d2, m0, m1, m2, F as 9 scalars row-major)."""
+    The mid increment m = Δq_a ± Δq_b is not normalised: p = m ⊗ q0 has
+    |p|² = |m|² = n2 (q0 is a unit quaternion), and the homogeneous form of
+    the rotation matrix gives G = n2·R(p/|p|) without a square root.  The
+    kernels divide by n2 once, off the critical path: a sqrt followed by a
+    division in the chain of every spring made the pass latency-bound
+    (benchmarks/results/elastic.txt).
+
+    Returns (d0, d1, d2, m0, m1, m2, G as 9 scalars row-major, n2)."""
     a = spring_bodies[s, 0]
     b = spring_bodies[s, 1]
     ax, ay, az = spring_arm_a[s, 0], spring_arm_a[s, 1], spring_arm_a[s, 2]
@@ -49,39 +57,57 @@ def gap_and_frame(s, spring_bodies, spring_arm_a, spring_arm_b, spring_frame0,
     if qa0 * qb0 + qa1 * qb1 + qa2 * qb2 + qa3 * qb3 < 0.0:
         qb0, qb1, qb2, qb3 = -qb0, -qb1, -qb2, -qb3
     m0, m1, m2, m3 = qa0 + qb0, qa1 + qb1, qa2 + qb2, qa3 + qb3
-    inv = 1.0 / math.sqrt(m0 * m0 + m1 * m1 + m2 * m2 + m3 * m3)
+    n2 = m0 * m0 + m1 * m1 + m2 * m2 + m3 * m3
     f = spring_frame0[s]
-    w, x, y, z = quat_mul(m0 * inv, m1 * inv, m2 * inv, m3 * inv, f[0], f[1], f[2], f[3])
-    F00 = 1.0 - 2.0 * (y * y + z * z)
-    F01 = 2.0 * (x * y - w * z)
-    F02 = 2.0 * (x * z + w * y)
-    F10 = 2.0 * (x * y + w * z)
-    F11 = 1.0 - 2.0 * (x * x + z * z)
-    F12 = 2.0 * (y * z - w * x)
-    F20 = 2.0 * (x * z - w * y)
-    F21 = 2.0 * (y * z + w * x)
-    F22 = 1.0 - 2.0 * (x * x + y * y)
+    w, x, y, z = quat_mul(m0, m1, m2, m3, f[0], f[1], f[2], f[3])
+    # homogeneous rotation matrix of the unnormalised quaternion p (|p|² = n2)
+    G00 = n2 - 2.0 * (y * y + z * z)
+    G01 = 2.0 * (x * y - w * z)
+    G02 = 2.0 * (x * z + w * y)
+    G10 = 2.0 * (x * y + w * z)
+    G11 = n2 - 2.0 * (x * x + z * z)
+    G12 = 2.0 * (y * z - w * x)
+    G20 = 2.0 * (x * z - w * y)
+    G21 = 2.0 * (y * z + w * x)
+    G22 = n2 - 2.0 * (x * x + y * y)
     return (pb0 - pa0, pb1 - pa1, pb2 - pa2,
             0.5 * (pa0 + pb0), 0.5 * (pa1 + pb1), 0.5 * (pa2 + pb2),
-            F00, F01, F02, F10, F11, F12, F20, F21, F22)
+            G00, G01, G02, G10, G11, G12, G20, G21, G22, n2)
+
+
+@nb.njit(inline="always", **JIT)
+def gap_and_frame(s, spring_bodies, spring_arm_a, spring_arm_b, spring_frame0,
+                  body_pos, body_rot, body_dq):
+    """World gap d, midpoint m and spring frame F (columns n, s, t) of spring s.
+
+    Returns (d0, d1, d2, m0, m1, m2, F as 9 scalars row-major)."""
+    (d0, d1, d2, m0, m1, m2,
+     G00, G01, G02, G10, G11, G12, G20, G21, G22, n2) = gap_and_scaled_frame(
+        s, spring_bodies, spring_arm_a, spring_arm_b, spring_frame0,
+        body_pos, body_rot, body_dq)
+    c = 1.0 / n2
+    return (d0, d1, d2, m0, m1, m2,
+            c * G00, c * G01, c * G02, c * G10, c * G11, c * G12, c * G20, c * G21, c * G22)
 
 
 @nb.njit(parallel=True, **JIT)
 def elastic_spring_pass(spring_bodies, spring_arm_a, spring_arm_b, spring_frame0, spring_k,
                         body_pos, body_rot, body_dq, spring_force, spring_mid):
-    """Linear-elastic springs: force on body a, f = F diag(k) Fᵀ d [N]."""
+    """Linear-elastic springs: force on body a, f = F diag(k) Fᵀ d [N]
+    (with F = G/n2: f = G diag(k/n2²) Gᵀ d)."""
     for s in nb.prange(spring_bodies.shape[0]):
         (d0, d1, d2, m0, m1, m2,
-         F00, F01, F02, F10, F11, F12, F20, F21, F22) = gap_and_frame(
+         G00, G01, G02, G10, G11, G12, G20, G21, G22, n2) = gap_and_scaled_frame(
             s, spring_bodies, spring_arm_a, spring_arm_b, spring_frame0,
             body_pos, body_rot, body_dq)
-        # local gap δ = Fᵀ d, traction × area = k δ
-        fn = spring_k[s, 0] * (F00 * d0 + F10 * d1 + F20 * d2)
-        fs = spring_k[s, 1] * (F01 * d0 + F11 * d1 + F21 * d2)
-        ft = spring_k[s, 2] * (F02 * d0 + F12 * d1 + F22 * d2)
-        spring_force[s, 0] = F00 * fn + F01 * fs + F02 * ft
-        spring_force[s, 1] = F10 * fn + F11 * fs + F12 * ft
-        spring_force[s, 2] = F20 * fn + F21 * fs + F22 * ft
+        # local gap δ = Fᵀ d = Gᵀ d / n2, traction × area = k δ
+        c = 1.0 / (n2 * n2)
+        fn = (c * spring_k[s, 0]) * (G00 * d0 + G10 * d1 + G20 * d2)
+        fs = (c * spring_k[s, 1]) * (G01 * d0 + G11 * d1 + G21 * d2)
+        ft = (c * spring_k[s, 2]) * (G02 * d0 + G12 * d1 + G22 * d2)
+        spring_force[s, 0] = G00 * fn + G01 * fs + G02 * ft
+        spring_force[s, 1] = G10 * fn + G11 * fs + G12 * ft
+        spring_force[s, 2] = G20 * fn + G21 * fs + G22 * ft
         spring_mid[s, 0] = m0
         spring_mid[s, 1] = m1
         spring_mid[s, 2] = m2
@@ -93,12 +119,13 @@ def spring_local_gap(spring_bodies, spring_arm_a, spring_arm_b, spring_frame0,
     """Local gap δ = (δn, δs, δt) of every spring [m] (output steps only)."""
     for s in nb.prange(spring_bodies.shape[0]):
         (d0, d1, d2, m0, m1, m2,
-         F00, F01, F02, F10, F11, F12, F20, F21, F22) = gap_and_frame(
+         G00, G01, G02, G10, G11, G12, G20, G21, G22, n2) = gap_and_scaled_frame(
             s, spring_bodies, spring_arm_a, spring_arm_b, spring_frame0,
             body_pos, body_rot, body_dq)
-        out_delta[s, 0] = F00 * d0 + F10 * d1 + F20 * d2
-        out_delta[s, 1] = F01 * d0 + F11 * d1 + F21 * d2
-        out_delta[s, 2] = F02 * d0 + F12 * d1 + F22 * d2
+        c = 1.0 / n2
+        out_delta[s, 0] = c * (G00 * d0 + G10 * d1 + G20 * d2)
+        out_delta[s, 1] = c * (G01 * d0 + G11 * d1 + G21 * d2)
+        out_delta[s, 2] = c * (G02 * d0 + G12 * d1 + G22 * d2)
 
 
 def elastic_energy(spring_k, delta):
