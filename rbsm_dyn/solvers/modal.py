@@ -8,7 +8,8 @@ Supports on faces are springs in K.  Loads and initial conditions play no
 part.
 
 * The lowest `solver.modes` frequencies: shift-invert Lanczos
-  (scipy eigsh, mode normal) about σ = −1e-10 λ_max, so that (K − σM) is
+  (scipy eigsh, mode normal; (K − σM) factorised by SuperLU as in the
+  linear mode) about σ = −1e-10 λ_max, so that (K − σM) is
   positive definite even for a model with free rigid-body motions.  The r
   rigid-body modes left free by the supports (r = 6 for a free model; counted
   from the six rigid modes that vanish on the constrained DOFs and lie in
@@ -41,7 +42,7 @@ import scipy.sparse.linalg as spla
 from ..model import new_state
 from ..physics.integrate import FREE
 from ..stiffness import mass_matrix, rigid_modes, stiffness_matrix
-from .linear import displaced_state
+from .linear import displaced_state, factorize
 
 __all__ = ["ModalResult", "omega_max", "natural_modes", "run", "write_modes_group",
            "DISPLAY_FRACTION"]
@@ -129,7 +130,10 @@ def natural_modes(model, n_modes=6, *, K=None, M=None, tol=0.0):
     t2 = _time.perf_counter()
     sigma = -SHIFT * wmax ** 2
     v0 = np.random.default_rng(1).standard_normal(nf)
-    lam, vec = spla.eigsh(Kff, k=want, M=Mff, sigma=sigma, which="LM", tol=tol, v0=v0)
+    lu = factorize(Kff - sigma * Mff)
+    opinv = spla.LinearOperator(Kff.shape, matvec=lu.solve, dtype=float)
+    lam, vec = spla.eigsh(Kff, k=want, M=Mff, sigma=sigma, which="LM", tol=tol, v0=v0,
+                          OPinv=opinv)
     t_eig = _time.perf_counter() - t2
     order = np.argsort(lam)
     lam, vec = lam[order], vec[:, order]
