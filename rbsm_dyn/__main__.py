@@ -10,6 +10,9 @@ import sys
 import time
 
 
+INFO_OMEGA_MAX_BODIES = 5000   # `info` computes the exact ω_max up to this many bodies
+
+
 def _parser():
     p = argparse.ArgumentParser(prog="python -m rbsm_dyn",
                                 description="Rigid-body-spring model (Kawai RBSM), explicit dynamics.")
@@ -86,6 +89,12 @@ def main(argv=None):
         print(f"bodies      {model.n_bodies}")
         print(f"springs     {model.n_springs} ({int(model.is_support.sum())} supports, {model.n_cut} cut)")
         print(f"stable dt   {dt:.4g} s (estimate; used × dt_safety {case.solver.dt_safety})")
+        if model.n_bodies <= INFO_OMEGA_MAX_BODIES:       # Lanczos: < 1 s at this size
+            from .solvers.modal import omega_max
+            w = omega_max(model)
+            if w > 0:
+                print(f"exact dt    {2.0 / w:.4g} s (2/ω_max, ω_max = {w:.4g} rad/s by Lanczos; "
+                      f"estimate/exact = {dt * w / 2.0:.3f})")
         if case.solver.mode == "dynamic":
             print(f"steps       {int(case.solver.end_time / (dt * case.solver.dt_safety)) + 1}")
         return 0
