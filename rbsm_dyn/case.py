@@ -283,13 +283,14 @@ class Solver(_Node):
     max_iterations: int = Field(default=200000, ge=1)
     relaxation: Literal["adaptive", "local"] = "adaptive"
     damping_factor: float = Field(default=0.7, ge=0, lt=1)
+    predictor: bool = True
     threads: Optional[int] = Field(default=None, ge=1)
     modes: int = Field(default=6, ge=1)
 
 
 DYNAMIC_KEYS = ("end_time", "dt", "dt_safety", "damping")
 STATIC_KEYS = ("load_steps", "tolerance", "max_iterations", "relaxation",
-               "damping_factor")
+               "damping_factor", "predictor")
 MODAL_KEYS = ("modes",)
 
 

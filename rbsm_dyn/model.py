@@ -42,7 +42,9 @@ class Model:
       spring_area, spring_h (S,) [m², m]; spring_face (S,) int32 (internal
       face id, or −1 − boundary face id for supports).
     Spring laws (physics/laws/): spring_law (S,) int32 row of law_params
-      (n_laws, N_PARAMS) [Pa, 1, J/m²]; row 0 is purely elastic (supports);
+      (n_laws, N_PARAMS) [Pa, 1, J/m²]; row 0 is purely elastic, row 1 + j
+      is material j (a support spring takes its cell's material: a clamp
+      can yield at the face, where beam theory puts the hinge);
       spring_state0 (S,) int8 initial state (cuts: 2, broken);
       inelastic: bool, True when any law or cut needs the inelastic kernel.
     CSR body -> springs: csr_ptr (N+1,), csr_spring (K,), csr_sign (K,) (+1 a, −1 b).
@@ -366,7 +368,7 @@ def build_model(case, mesh=None):
         sup.append(dict(a=cell, b=np.full(len(cell), n), point=bsp.point,
                         normal=nrm_b, area=bsp.weight, h=h, k=k * bsp.weight[:, None],
                         frame=np.tile(frame, (len(cell), 1)), face=(-1 - bf).astype(IDX),
-                        law=np.zeros(len(cell), dtype=IDX),
+                        law=(1 + body_material[cell]).astype(IDX),
                         state0=np.zeros(len(cell), dtype=np.int8)))
 
     parts = [internal] + sup

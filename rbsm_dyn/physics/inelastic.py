@@ -91,9 +91,10 @@ def inelastic_spring_pass(spring_bodies, spring_arm_a, spring_arm_b, spring_fram
                                                      P[P_TANPHI], P[P_TENSION] * a,
                                                      kn, ks, fn, fs, ft)
                 if yielded:
-                    pn = (fn - gn) / kn
-                    ps = (fs - gs) / ks
-                    pt = (ft - gt) / kt
+                    # (a support may hold only some components: k = 0 there)
+                    pn = (fn - gn) / kn if kn > 0.0 else 0.0
+                    ps = (fs - gs) / ks if ks > 0.0 else 0.0
+                    pt = (ft - gt) / kt if kt > 0.0 else 0.0
                     spring_dp[s, 0] += pn
                     spring_dp[s, 1] += ps
                     spring_dp[s, 2] += pt

@@ -5,11 +5,11 @@ every body stable at a unit step, Underwood 1983, from Gershgorin row sums
 of the stiffness), advanced at a unit step h = 1 with one of two dampings:
 
 * ADAPTIVE (default): viscous damping c = 2 ω_min, critical for the lowest
-  mode, with ω_min² re-estimated every iteration by the Rayleigh quotient
-  Δuᵀ(−Δr) / Δuᵀ M Δu of the motion since the start of the load step
-  (Underwood, "Dynamic relaxation", in Computational Methods for Transient
-  Analysis, 1983, eqs. 6–8; Δr is the change of the unbalanced force).
-  Velocity update (central difference, h = 1):
+  mode, with ω_min² re-estimated every iteration by Underwood's Rayleigh
+  quotient uᵀK̃u / uᵀMu of the total displacement u, K̃ the diagonal
+  stiffness seen in the last iteration, K̃_ii = −Δr_i/Δu_i (Underwood,
+  "Dynamic relaxation", in Computational Methods for Transient Analysis,
+  1983, eqs. 6–8).  Velocity update (central difference, h = 1):
       v ← ((2 − c) v + 2 r/m) / (2 + c).
 * LOCAL: Cundall's local non-viscous damping (Cundall 1987; Itasca PFC
   "local damping"): each force component is reduced by β|F| against the
@@ -23,6 +23,7 @@ import numpy as np
 
 from .integrate import DISPLACEMENT, FIXED, FREE, gather, refresh_rotation
 from .rotation import quat_mul
+from .inelastic import inelastic_spring_pass
 from .springs import elastic_spring_pass
 
 JIT = dict(cache=True, nogil=True, fastmath=False, error_model="numpy")
@@ -43,20 +44,29 @@ def _damped(v, f, m, kind, beta, c):
     return ((2.0 - c) * v + 2.0 * f / m) / (2.0 + c)
 
 
+@nb.njit(inline="always", **JIT)
+def _rayleigh(u, v_prev, f, f_prev, m, reset):
+    """This DOF's share (uᵀK̃u, uᵀMu) of Underwood's quotient."""
+    if reset or v_prev == 0.0:
+        return 0.0, m * u * u
+    return u * u * (f_prev - f) / v_prev, m * u * u
+
+
 @nb.njit(parallel=True, **JIT)
 def relax_body_pass(lam, kind, beta, c, reset, ground, csr_ptr, csr_spring, csr_sign,
                     spring_bodies, spring_force, spring_mid, body_mass_real, fict_mass,
                     fict_inertia, body_pos, body_pos0, body_quat, body_quat0, body_vel,
                     body_angmom, body_rot, body_dq, body_fext, body_mext, gravity,
                     dof_kind, dof_value, arm_length, body_resid, body_reaction,
-                    body_du, body_r0, body_num, body_den):
+                    body_theta, body_rprev, body_num, body_den):
     """One unit step of damped fictitious dynamics at load factor lam.
 
     body_resid[i] gets |unbalanced force|² + |unbalanced moment/arm_length|²
     over the free components; body_reaction the support/constraint force.
-    body_du (N, 6): displacement and rotation since the load step began;
-    body_r0 (N, 6): unbalanced force then (set when reset); body_num,
-    body_den (N,): this body's part of the Rayleigh quotient."""
+    body_theta (N, 3): total rotation (sum of the increments) [rad];
+    body_rprev (N, 6): unbalanced force of the previous iteration (`reset`:
+    a new load step, no estimate this iteration); body_num, body_den (N,):
+    this body's part of the Rayleigh quotient."""
     for i in nb.prange(fict_mass.shape[0]):
         g = gather(i, ground, csr_ptr, csr_spring, csr_sign, spring_bodies, spring_force,
                    spring_mid, body_pos)
@@ -69,16 +79,15 @@ def relax_body_pass(lam, kind, beta, c, reset, ground, csr_ptr, csr_spring, csr_
             dk = dof_kind[i, k]
             if dk == FREE:
                 res += f * f
-                if reset:
-                    body_r0[i, k] = f
-                    body_du[i, k] = 0.0
-                du = body_du[i, k]
-                num -= du * (f - body_r0[i, k])
-                den += m * du * du
-                v = _damped(body_vel[i, k], f, m, kind, beta, c)
+                v = body_vel[i, k]
+                a, b = _rayleigh(body_pos[i, k] - body_pos0[i, k], v, f, body_rprev[i, k],
+                                 m, reset)
+                num += a
+                den += b
+                body_rprev[i, k] = f
+                v = _damped(v, f, m, kind, beta, c)
                 body_vel[i, k] = v
                 body_pos[i, k] += v
-                body_du[i, k] = du + v
                 body_reaction[i, k] = g[6 + k]
             else:
                 body_reaction[i, k] = g[6 + k] - f
@@ -92,19 +101,19 @@ def relax_body_pass(lam, kind, beta, c, reset, ground, csr_ptr, csr_spring, csr_
                 continue
             t = g[3 + k] + lam * body_mext[i, k]
             res += (t / arm_length) ** 2
-            if reset:
-                body_r0[i, 3 + k] = t
-                body_du[i, 3 + k] = 0.0
-            dth = body_du[i, 3 + k]
-            num -= dth * (t - body_r0[i, 3 + k])
-            den += inertia * dth * dth
-            body_angmom[i, k] = _damped(body_angmom[i, k], t, 1.0, kind, beta, c)
+            L = body_angmom[i, k]
+            a, b = _rayleigh(body_theta[i, k], L / inertia, t, body_rprev[i, 3 + k],
+                             inertia, reset)
+            num += a
+            den += b
+            body_rprev[i, 3 + k] = t
+            body_angmom[i, k] = _damped(L, t, 1.0, kind, beta, c)
         w0 = body_angmom[i, 0] / inertia
         w1 = body_angmom[i, 1] / inertia
         w2 = body_angmom[i, 2] / inertia
-        body_du[i, 3] += w0
-        body_du[i, 4] += w1
-        body_du[i, 5] += w2
+        body_theta[i, 0] += w0
+        body_theta[i, 1] += w1
+        body_theta[i, 2] += w2
         ang = math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
         if ang > 0.0:
             # exact rotation by ω·1 about the world axis ω/|ω|: q <- exp(ω/2) ⊗ q
@@ -126,26 +135,35 @@ def relax_body_pass(lam, kind, beta, c, reset, ground, csr_ptr, csr_spring, csr_
 @nb.njit(**JIT)
 def run_relax(n_iter, lam, kind, beta, c, reset, ground,
               spring_bodies, spring_arm_a, spring_arm_b, spring_frame0, spring_k,
+              inelastic, spring_area, spring_h, spring_law, law_params,
+              spring_state, spring_dp, spring_kappa, spring_dmg, spring_wp, spring_wf,
               spring_force, spring_mid, csr_ptr, csr_spring, csr_sign,
               body_mass_real, fict_mass, fict_inertia, body_pos, body_pos0, body_quat,
               body_quat0, body_vel, body_angmom, body_rot, body_dq, body_fext, body_mext,
               gravity, dof_kind, dof_value, arm_length, body_resid, body_reaction,
-              body_du, body_r0, body_num, body_den):
+              body_theta, body_rprev, body_num, body_den):
     """n_iter relaxation steps inside compiled code.  `reset` starts a load
-    step (Δu = 0, r0 = r).  Returns (kinetic energy of the fictitious motion
+    step (no quotient from its first iteration).  Returns (kinetic energy of the fictitious motion
     after the last step, the damping coefficient c to continue with)."""
     for it in range(n_iter):
         first = reset and it == 0
-        elastic_spring_pass(spring_bodies, spring_arm_a, spring_arm_b, spring_frame0,
-                            spring_k, body_pos, body_rot, body_dq, spring_force, spring_mid)
+        if inelastic:
+            inelastic_spring_pass(spring_bodies, spring_arm_a, spring_arm_b, spring_frame0,
+                                  spring_k, spring_area, spring_h, spring_law, law_params,
+                                  body_pos, body_rot, body_dq, spring_force, spring_mid,
+                                  spring_state, spring_dp, spring_kappa, spring_dmg,
+                                  spring_wp, spring_wf)
+        else:
+            elastic_spring_pass(spring_bodies, spring_arm_a, spring_arm_b, spring_frame0,
+                                spring_k, body_pos, body_rot, body_dq, spring_force, spring_mid)
         relax_body_pass(lam, kind, beta, c, first, ground, csr_ptr, csr_spring,
                         csr_sign, spring_bodies, spring_force, spring_mid, body_mass_real,
                         fict_mass, fict_inertia, body_pos, body_pos0, body_quat, body_quat0,
                         body_vel, body_angmom, body_rot, body_dq, body_fext, body_mext,
                         gravity, dof_kind, dof_value, arm_length, body_resid, body_reaction,
-                        body_du, body_r0, body_num, body_den)
+                        body_theta, body_rprev, body_num, body_den)
         if kind == ADAPTIVE:
-            # Rayleigh quotient of the motion so far -> ω_min², c = 2 ω_min
+            # Underwood's quotient -> ω_min², c = 2 ω_min
             # (Underwood 1983); serial sum so that any thread count agrees
             num = 0.0
             den = 0.0

@@ -15,6 +15,7 @@ import time as _time
 import numpy as np
 
 from ..model import dof_row_sums, new_state
+from ..physics.integrate import refresh_all_rotations
 from ..physics.relax import ADAPTIVE, LOCAL, run_relax
 from .explicit import RunFailed, synchronize  # noqa: F401  (re-exported)
 
@@ -43,7 +44,7 @@ def run(case, model, recorder, *, max_steps=None, progress=None, check_every=200
     beta = sol.damping_factor if kind == LOCAL else 0.0
     fm, fi = fictitious_masses(m, beta)
     n = m.n_bodies
-    du, r0 = np.zeros((n, 6)), np.zeros((n, 6))
+    theta, rprev = np.zeros((n, 3)), np.zeros((n, 6))
     num, den = np.zeros(n), np.zeros(n)
     arm = float(np.median(np.linalg.norm(m.spring_arm_a, axis=1))) or 1.0
     resid = np.zeros(m.n_bodies)
@@ -54,22 +55,32 @@ def run(case, model, recorder, *, max_steps=None, progress=None, check_every=200
     record_frame(recorder, m, state, 0, 0.0, 0.0)
     if progress:
         progress.start(n_steps, 1.0)
-    disp_mask = m.dof_kind[:, :3] == 3
+    step_u = elastic_predictor(m) if sol.predictor else None
+    c = 0.0
     for j in range(1, n_steps + 1):
         lam = j / n_steps
+        if step_u is not None:
+            apply_increment(m, state, step_u / n_steps)
+            theta += np.where(m.dof_kind[:, 3:] == 0, step_u[:, 3:] / n_steps, 0.0)
+        # prescribed displacements take their value before the first spring pass
+        disp = m.dof_kind[:, :3] == 3
+        state.body_pos[:-1][disp] = m.body_pos0[:-1][disp] + lam * m.dof_value[:, :3][disp]
         it = 0
-        c = 0.0
         while True:
             k = check_every
             if max_steps is not None:
                 k = min(k, max(0, int(max_steps) - total))
-            ek, c = run_relax(k, lam, kind, beta, c, it == 0, m.ground, m.spring_bodies, m.spring_arm_a,
-                           m.spring_arm_b, m.spring_frame0, m.spring_k, state.spring_force,
-                           state.spring_mid, m.csr_ptr, m.csr_spring, m.csr_sign,
-                           m.body_mass, fm, fi, state.body_pos, m.body_pos0, state.body_quat,
-                           m.body_quat0, state.body_vel, state.body_angmom, state.body_rot,
-                           state.body_dq, m.body_fext, m.body_mext, m.gravity, m.dof_kind,
-                           m.dof_value, arm, resid, state.body_reaction, du, r0, num, den)
+            ek, c = run_relax(
+                k, lam, kind, beta, c, it == 0, m.ground, m.spring_bodies, m.spring_arm_a,
+                m.spring_arm_b, m.spring_frame0, m.spring_k,
+                m.inelastic, m.spring_area, m.spring_h, m.spring_law, m.law_params,
+                state.spring_state, state.spring_dp, state.spring_kappa,
+                state.spring_dmg, state.spring_wp, state.spring_wf, state.spring_force,
+                state.spring_mid, m.csr_ptr, m.csr_spring, m.csr_sign,
+                m.body_mass, fm, fi, state.body_pos, m.body_pos0, state.body_quat,
+                m.body_quat0, state.body_vel, state.body_angmom, state.body_rot,
+                state.body_dq, m.body_fext, m.body_mext, m.gravity, m.dof_kind,
+                m.dof_value, arm, resid, state.body_reaction, theta, rprev, num, den)
             it += k
             total += k
             if not np.all(np.isfinite(state.body_pos)):
@@ -102,6 +113,49 @@ def run(case, model, recorder, *, max_steps=None, progress=None, check_every=200
         record_frame(recorder, m, state, total, lam, ratio)
     return dict(iterations=iterations, wall_time=_time.perf_counter() - t_wall, state=state,
                 converged=True)
+
+
+PREDICTOR_MAX_BODIES = 200_000   # above this the sparse direct solve costs more than it saves
+
+
+def elastic_predictor(model):
+    """Small-strain linear solution U (N, 6) [m, rad] of the full load and
+    prescribed displacements (Kawai's assembled K, rbsm_dyn/stiffness.py),
+    or None when K is singular (a mechanism) or the model is too large.
+
+    Each load step starts from the previous equilibrium moved by its share
+    of U (an elastic predictor, as in implicit codes): an elastic problem is
+    then already in equilibrium, and a prescribed displacement reaches the
+    whole body at once instead of straining the springs next to it first,
+    which in a plastic model would yield them spuriously."""
+    from ..stiffness import solve_linear
+    if model.n_bodies > PREDICTOR_MAX_BODIES:
+        return None
+    try:
+        U, _ = solve_linear(model)
+    except ValueError:
+        return None
+    return U if np.all(np.isfinite(U)) else None
+
+
+def apply_increment(model, state, dU):
+    """Move free components by dU (N, 6): translations added, rotations as an
+    exact rotation by the world rotation vector θ, q <- exp(θ/2) ⊗ q."""
+    n = model.n_bodies
+    free = model.dof_kind == 0
+    d = np.where(free, dU, 0.0)
+    state.body_pos[:n] += d[:, :3]
+    th = d[:, 3:]
+    ang = np.linalg.norm(th, axis=1)
+    turn = ang > 0
+    if np.any(turn):
+        axis = th[turn] / ang[turn, None]
+        dq = np.concatenate([np.cos(0.5 * ang[turn])[:, None],
+                             np.sin(0.5 * ang[turn])[:, None] * axis], axis=1)
+        from ..physics.rotation import quat_mul_np
+        q = quat_mul_np(dq, state.body_quat[:n][turn])
+        state.body_quat[np.nonzero(turn)[0]] = q / np.linalg.norm(q, axis=1)[:, None]
+        refresh_all_rotations(n, state.body_quat, model.body_quat0, state.body_rot, state.body_dq)
 
 
 def load_work(model, state, lam):

@@ -32,8 +32,9 @@ def contact_traction(mu, kn, ks, dn, ds, dt, slip_s, slip_t):
     if t > tmax:
         r = tmax / t
         # slip takes the excess of the trial traction
-        slip_s += (ts - ts * r) / ks
-        slip_t += (tt - tt * r) / ks
+        if ks > 0.0:
+            slip_s += (ts - ts * r) / ks
+            slip_t += (tt - tt * r) / ks
         ts *= r
         tt *= r
     return sn, ts, tt, slip_s, slip_t, 1
