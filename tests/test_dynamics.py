@@ -318,8 +318,8 @@ def test_free_fall_under_gravity_is_exact(run_case):
 
 
 def test_energy_balance_with_mass_proportional_damping(run_case):
-    """kinetic + strain + damping = initial kinetic (no loads), to 1e-3 of
-    the initial kinetic energy, while damping removes most of it."""
+    """kinetic + strain + damping = external work, to 1e-3 of the work, while
+    damping takes a good part of it (a tip force ramped on, then held)."""
     text = f"""
     name: damped
     domain: {{box: [[0, 0, 0], [0.4, 0.1, 0.1]]}}
@@ -329,13 +329,13 @@ def test_energy_balance_with_mass_proportional_damping(run_case):
     groups:
       tip: {{box: [[0.36, -1, -1], [1, 1, 1]]}}
     boundary: [{{face: xmin, fix: all}}]
-    initial: [{{group: tip, velocity: [0, 2.0, -5.0]}}]
+    loads: [{{group: tip, force: [0, 2.0e4, -1.0e5], history: [[0, 0], [1.0e-4, 1], [1, 1]]}}]
     solver: {{mode: dynamic, end_time: 1.0e-3, damping: {{alpha: 5000.0}}}}
     output: {{interval: 1.0e-5}}
     """
     h = run_case(text)
     ob = h.observables
-    k0 = ob["kinetic"][0]
-    assert ob["damping"][-1] > 0.5 * k0
-    balance = ob["kinetic"] + ob["strain"] + ob["damping"] - ob["external_work"] - k0
-    assert np.abs(balance).max() <= 1e-3 * k0
+    W = ob["external_work"]
+    assert ob["damping"][-1] > 0.2 * W[-1]
+    balance = ob["kinetic"] + ob["strain"] + ob["damping"] - W
+    assert np.abs(balance).max() <= 1e-3 * W.max()

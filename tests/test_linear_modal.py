@@ -273,8 +273,6 @@ def test_stable_dt_estimate_is_safe(name):
     assert stable_dt_ratio(name) < 1.0
 
 
-@pytest.mark.xfail(strict=True, reason="Model.stable_dt() (unscaled Gershgorin) is 0.05-0.14 "
-                   "of 2/ω_max; a mass-scaled bound reaches 0.47-0.64 (see issue 3 report)")
 @pytest.mark.parametrize("name", list(STABLE_DT_MESHES))
 def test_stable_dt_estimate_is_not_wasteful(name):
     """Issue 3: the estimate is above half of 2/ω_max (no more than twice
