@@ -89,7 +89,7 @@ def stiffness_matrix(model):
     sb = model.spring_bodies.astype(np.int64)
     r_a, r_b, C = _spring_geometry(model)
     idx6 = np.arange(6)
-    rows, cols, vals = [], [], []
+    K = sp.csr_matrix((6 * n, 6 * n))
     for lo in range(0, len(sb), _CHUNK):
         sl = slice(lo, lo + _CHUNK)
         G_a, G_b = _spring_B(r_a[sl], r_b[sl])
@@ -103,6 +103,7 @@ def stiffness_matrix(model):
         K_ab = np.einsum("ski,skj->sij", G_a, CG_b)
         blocks += [(a, b, K_ab, inner), (b, a, K_ab.transpose(0, 2, 1), inner),
                    (b, b, np.einsum("ski,skj->sij", G_b, CG_b), inner)]
+        rows, cols, vals = [], [], []
         for i, j, blk, keep in blocks:
             i, j, blk = i[keep], j[keep], blk[keep]
             rows.append(np.broadcast_to((6 * i)[:, None, None] + idx6[None, :, None],
@@ -110,10 +111,9 @@ def stiffness_matrix(model):
             cols.append(np.broadcast_to((6 * j)[:, None, None] + idx6[None, None, :],
                                         blk.shape).ravel())
             vals.append(blk.ravel())
-    if not rows:
-        return sp.csr_matrix((6 * n, 6 * n))
-    K = sp.coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-                      shape=(6 * n, 6 * n)).tocsr()     # duplicates are summed
+        # summed chunk by chunk: memory stays at K plus one chunk's entries
+        K = K + sp.coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                              shape=(6 * n, 6 * n)).tocsr()
     K.sum_duplicates()
     return K
 

@@ -115,7 +115,8 @@ def run(case, model, recorder, *, max_steps=None, progress=None, check_every=200
                 converged=True)
 
 
-PREDICTOR_MAX_BODIES = 200_000   # above this the sparse direct solve costs more than it saves
+PREDICTOR_MAX_BODIES = 5_000     # above this the sparse direct solve costs more than it saves
+                                 # (benchmarks/results/linear.txt: 5.7 s at 2 000 bodies)
 
 
 def elastic_predictor(model):
