@@ -269,7 +269,7 @@ def main(argv=None):
             for r in loop["rows"]:
                 cold = f"{start['cold']['wall']:.2f}" if start else ""
                 warm = f"{start['warm']['wall']:.2f}" if start else ""
-                f.write(f"{info['date']},{args.label},{rev},{r['threads']},{r['springs']},"
+                f.write(f"{info['date']},{args.label.replace(',', ';')},{rev},{r['threads']},{r['springs']},"
                         f"{r['bodies']},{r['steps']},{r['best_s']:.4f},{r['ns_spring']:.2f},"
                         f"{r['ns_body']:.1f},{r['cpu_ns_spring']:.2f},{r['spring_pass_ns']:.2f},"
                         f"{r['body_pass_ns_per_spring']:.2f},{cold},{warm}\n")
