@@ -85,3 +85,50 @@ def test_energy_balance_with_fracture(crack_run):
     assert ob["fracture"][-1] > 0.01 * W[-1]
     assert np.abs(balance).max() <= 1e-2 * W.max()
     assert ob["crack_area"][-1] > ob["crack_area"][0]
+
+
+def griffith_case(a_cells, n=80, W=0.1, s_max=60.0e6, ramp=4.0e-4, end=1.2e-4):
+    """A square plate (blocks n × 1 × n, ν = 0, ε_cr = 1e-3) with a central
+    crack of half-length a = a_cells·Δ cut along z = W/2, pulled on its top
+    and bottom rows by a traction ramped slowly (a ramp of 20 wave transits)."""
+    d = W / n
+    a = a_cells * d
+    F = s_max * W * d
+    return f"""
+    name: griffith
+    domain: {{box: [[0, 0, 0], [{W}, {d}, {W}]]}}
+    mesh: {{kind: blocks, divisions: [{n}, 1, {n}]}}
+    materials:
+      glass: {{density: 2500, young: 60.0e9, poisson: 0.0, rupture: {{strain: 1.0e-3}}}}
+    groups:
+      top: {{box: [[-1, -1, {W - d / 2}], [1, 1, 1]]}}
+      bottom: {{box: [[-1, -1, -1], [1, 1, {d / 2}]]}}
+    cuts: [{{point: [0, 0, {W / 2}], normal: [0, 0, 1],
+             within: [[{W / 2 - a}, -1, {W / 2 - d / 4}], [{W / 2 + a}, 1, {W / 2 + d / 4}]]}}]
+    loads:
+      - {{group: top, force: [0, 0, {F}], history: [[0, 0], [{ramp}, 1]]}}
+      - {{group: bottom, force: [0, 0, {-F}], history: [[0, 0], [{ramp}, 1]]}}
+    solver: {{mode: dynamic, end_time: {end}}}
+    output: {{interval: 5.0e-7, fields: [position]}}
+    """, s_max / ramp
+
+
+def test_E1_griffith_scaling(run_case):
+    """VERIFICATION E1: σc = √(E′Gc/(πa)), so doubling the crack length
+    divides the failure stress by √2 (within 10 %; the finite-width factor
+    √sec(πa/W) of a centre crack (Feddersen) makes the expected ratio
+    √2 · 1.0254/1.0062 = 1.441 at a/W = 0.05 → 0.1).  Failure: the first
+    spring to break beyond the cut."""
+    sigma = []
+    for a_cells in (4, 8):
+        text, rate = griffith_case(a_cells)
+        h = run_case(text)
+        nb = h.observables["n_broken"]
+        k = np.argmax(nb > nb[0])
+        assert k > 0
+        sigma.append(rate * h.time[k])
+    ratio = sigma[0] / sigma[1]
+    feddersen = np.sqrt(2) * np.sqrt(1 / np.cos(np.pi * 0.1)) / np.sqrt(1 / np.cos(np.pi * 0.05))
+    assert feddersen == pytest.approx(1.441, abs=1e-3)
+    assert ratio == pytest.approx(np.sqrt(2), rel=0.10)
+    assert ratio == pytest.approx(feddersen, rel=0.10)
