@@ -18,14 +18,19 @@ Order for an intact spring (laws in physics/laws/):
   3. return mapping onto the yield surface (plastic.py), δp and W_p grow,
   4. rupture by strain or full damage: the spring turns into contact and
      the elastic energy it loses is W_f.
-A broken spring is a contact (contact.py).
+A broken spring is a contact (contact.py) until its gap |δ| exceeds the
+spring length h (opened, slid or turned by a whole cell): then the two
+cells have parted and the pair is never in contact again (spring_kappa =
+inf marks it), so fragments that fly and tumble do not push through a face
+they no longer share.  Sliding by more than h along a crack is beyond this
+pairwise contact (it would need contact detection between new partners).
 """
 import numba as nb
 import numpy as np
 
 from .laws import (BROKEN, CONTACT, P_COH, P_CRIT, P_EPSCR, P_FT, P_GF, P_MU,
                    P_RUPT, P_SY, P_TANPHI, P_TENSION, YIELDED)
-from .laws.contact import contact_traction
+from .laws.contact import CONTACT_OFF, contact_traction
 from .laws.plastic import plastic_return
 from .laws.rupture import SOFTENING, STRAIN, equivalent_strain, softening_damage
 from .integrate import dynamic_body_pass
@@ -117,9 +122,15 @@ def inelastic_spring_pass(spring_bodies, spring_arm_a, spring_arm_b, spring_fram
                 spring_dp[s, 2] = dt
             spring_state[s] = state
         if state >= BROKEN:
+            if dn * dn + ds * ds + dt * dt > spring_h[s] * spring_h[s]:
+                # moved apart by a whole spring length (opened, slid or turned
+                # away): the two cells have parted and no longer meet at this
+                # face (RBSM contact is between the original neighbours only)
+                spring_kappa[s] = np.inf
             ss0 = spring_dp[s, 1]
             st0 = spring_dp[s, 2]
-            fn, fs, ft, ss1, st1, closed = contact_traction(P[P_MU], kn, ks, dn, ds, dt, ss0, st0)
+            mu = P[P_MU] if spring_kappa[s] != np.inf else CONTACT_OFF
+            fn, fs, ft, ss1, st1, closed = contact_traction(mu, kn, ks, dn, ds, dt, ss0, st0)
             if closed:
                 # friction work on the slip increment
                 spring_wp[s] += fs * (ss1 - ss0) + ft * (st1 - st0)
