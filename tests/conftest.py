@@ -1,11 +1,21 @@
 """Shared helpers: run a case text through the command line in-process and
-read its history."""
-import textwrap
+read its history.
 
-import pytest
+The test models are small (10²–10⁴ springs): there a second Numba thread
+costs more at each parallel region's barrier than it brings, so the suite
+runs on one thread unless NUMBA_NUM_THREADS is set.  The parallel path is
+tested on its own (test_dynamics.py: identical results with 1 and 2
+threads, which sets NUMBA_NUM_THREADS=2 for its runs)."""
+import os
 
-import rbsm_dyn
-from rbsm_dyn.__main__ import main
+os.environ.setdefault("NUMBA_NUM_THREADS", "1")
+
+import textwrap  # noqa: E402
+
+import pytest  # noqa: E402
+
+import rbsm_dyn  # noqa: E402
+from rbsm_dyn.__main__ import main  # noqa: E402
 
 
 @pytest.fixture

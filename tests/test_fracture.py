@@ -160,3 +160,22 @@ def test_shattering_run_stays_finite_and_bounded(run_case):
     assert np.all(ob["kinetic"] + ob["strain"] <= 1.01 * k0)
     balance = ob["kinetic"] + ob["strain"] + ob["plastic"] + ob["fracture"] - k0
     assert np.abs(balance).max() <= 2e-2 * k0
+
+
+def test_crack_faces_can_be_drawn_from_the_history(crack_run):
+    """The broken springs of the last frame name internal faces whose
+    polygons (springs/faces) are stored: the crack of the notched plate lies
+    along its notch plane z = 30 mm (most of its area within a band of a
+    few cells), and its area equals the crack_area observable."""
+    h = crack_run
+    state = h["springs/state"][-1]
+    face = h.static["springs/face"]
+    area = h.static["springs/area"]
+    ptr = h.static["springs/faces/vertex_ptr"]
+    xyz = h.static["springs/faces/vertex_xyz"]
+    broken = (state >= 2) & (face >= 0)
+    assert area[state >= 2].sum() == pytest.approx(h.observables["crack_area"][-1], rel=1e-12)
+    faces = np.unique(face[broken])
+    z = np.array([xyz[ptr[f]:ptr[f + 1], 2].mean() for f in faces])
+    a = np.array([area[broken & (face == f)].sum() for f in faces])
+    assert a[np.abs(z - 0.03) < 0.006].sum() > 0.7 * a.sum()

@@ -91,6 +91,11 @@ class Recorder:
         w.write_static("springs/area", m.spring_area, "m2")
         w.write_static("springs/face", m.spring_face, "1")
         w.write_static("springs/support", m.is_support.astype(np.int8), "1")
+        # internal face polygons, so that crack faces (springs/state >= 2 of
+        # spring s -> face springs/face[s]) can be drawn
+        w.write_static("springs/faces/vertex_ptr", mesh.face_vertex_ptr, "1")
+        w.write_static("springs/faces/vertex_xyz", mesh.face_vertex_xyz, "m")
+        w.write_static("springs/faces/cells", mesh.face_cells, "1")
         for name in self.fields:
             path_, tail, dt, unit = FIELD_SERIES[name]
             if tail is None:
