@@ -34,16 +34,19 @@ def _ellipse_return(sn, ss, st, kn, ks, c, sy):
     iterates increase monotonically to the root)."""
     t2 = ss * ss + st * st
     lam = 0.0
-    for _ in range(60):
+    tol = 1e-13 * sy * sy    # |f| at round-off of the traction (a 1e-15 step
+    for _ in range(60):      # tolerance never triggered: 32 iterations on average)
         an = 1.0 / (1.0 + lam * kn)
         at = 1.0 / (1.0 + lam * c * ks)
         f = sn * sn * an * an + c * t2 * at * at - sy * sy
+        if abs(f) <= tol:
+            break
         df = -2.0 * (sn * sn * kn * an * an * an + c * c * ks * t2 * at * at * at)
         if df == 0.0:
             break
         step = f / df
         lam -= step
-        if abs(step) <= 1e-15 * (abs(lam) + 1e-300):
+        if abs(step) <= 1e-13 * abs(lam):
             break
     an = 1.0 / (1.0 + lam * kn)
     at = 1.0 / (1.0 + lam * c * ks)
