@@ -63,13 +63,13 @@ def test_rigid_motion_gives_no_spring_force(angle):
 
 def one_free_body(inertia):
     """A single cell whose mass properties are replaced by the given ones."""
-    _, m = model_of(f"""
+    _, m = model_of("""
     name: body
-    domain: {{box: [[0, 0, 0], [1, 1, 1]]}}
-    mesh: {{kind: blocks, divisions: [1, 1, 1]}}
+    domain: {box: [[0, 0, 0], [1, 1, 1]]}
+    mesh: {kind: blocks, divisions: [1, 1, 1]}
     materials:
-      m: {{density: 1.0, young: 1.0, poisson: 0.0}}
-    solver: {{mode: dynamic, end_time: 1.0}}
+      m: {density: 1.0, young: 1.0, poisson: 0.0}
+    solver: {mode: dynamic, end_time: 1.0}
     """)
     quat0 = m.body_quat0.copy()
     quat0[0] = (1.0, 0.0, 0.0, 0.0)
@@ -208,10 +208,10 @@ def test_D2_bar_impact_plateau(run_case):
     assert plateau.mean() == pytest.approx(200e6, rel=3e-2)
 
 
-def test_energy_balance_of_an_elastic_run(run_case):
-    """kinetic + strain = external work, to 1e-3 of the work, at every
-    frame of an undamped Voronoi cantilever under a ramped tip force."""
-    text = f"""
+def ramped_cantilever(ramp, end_time, solver_extra=""):
+    """An undamped (or damped) Voronoi cantilever whose tip force is ramped on
+    over `ramp` seconds and then held."""
+    return f"""
     name: energy
     domain: {{box: [[0, 0, 0], [0.4, 0.1, 0.1]]}}
     mesh: {{kind: voronoi, size: 0.04, seed: 3}}
@@ -220,10 +220,16 @@ def test_energy_balance_of_an_elastic_run(run_case):
     groups:
       tip: {{box: [[0.36, -1, -1], [1, 1, 1]]}}
     boundary: [{{face: xmin, fix: all}}]
-    loads: [{{group: tip, force: [0, 2.0e4, -1.0e5], history: [[0, 0], [2.0e-4, 1], [1, 1]]}}]
-    solver: {{mode: dynamic, end_time: 6.0e-4}}
+    loads: [{{group: tip, force: [0, 2.0e4, -1.0e5], history: [[0, 0], [{ramp}, 1], [1, 1]]}}]
+    solver: {{mode: dynamic, end_time: {end_time}{solver_extra}}}
     output: {{interval: 1.0e-5}}
     """
+
+
+def test_energy_balance_of_an_elastic_run(run_case):
+    """kinetic + strain = external work, to 1e-3 of the work, at every
+    frame of an undamped Voronoi cantilever under a ramped tip force."""
+    text = ramped_cantilever(2.0e-4, 6.0e-4)
     h = run_case(text)
     ob = h.observables
     W = ob["external_work"]
@@ -320,19 +326,7 @@ def test_free_fall_under_gravity_is_exact(run_case):
 def test_energy_balance_with_mass_proportional_damping(run_case):
     """kinetic + strain + damping = external work, to 1e-3 of the work, while
     damping takes a good part of it (a tip force ramped on, then held)."""
-    text = f"""
-    name: damped
-    domain: {{box: [[0, 0, 0], [0.4, 0.1, 0.1]]}}
-    mesh: {{kind: voronoi, size: 0.04, seed: 3}}
-    materials:
-      steel: {{density: {RHO}, young: {E}, poisson: 0.2}}
-    groups:
-      tip: {{box: [[0.36, -1, -1], [1, 1, 1]]}}
-    boundary: [{{face: xmin, fix: all}}]
-    loads: [{{group: tip, force: [0, 2.0e4, -1.0e5], history: [[0, 0], [1.0e-4, 1], [1, 1]]}}]
-    solver: {{mode: dynamic, end_time: 1.0e-3, damping: {{alpha: 5000.0}}}}
-    output: {{interval: 1.0e-5}}
-    """
+    text = ramped_cantilever(1.0e-4, 1.0e-3, ", damping: {alpha: 5000.0}")
     h = run_case(text)
     ob = h.observables
     W = ob["external_work"]

@@ -2,7 +2,6 @@
 Rayleigh speed (VERIFICATION E2), its energy balance closes with the
 fracture and friction dissipation, Griffith's scaling of the failure stress
 with the crack length (E1), and a shattering run stays finite and stable."""
-import textwrap
 from pathlib import Path
 
 import numpy as np

@@ -132,7 +132,6 @@ def test_friction_on_a_cut_face():
     m = build_model(load_case_text(textwrap.dedent(text)))
     st = new_state(m)
     assert m.inelastic and np.all(st.spring_state == BROKEN)
-    k = E / 0.1
     dn = -1e-6
     small = 0.2e-6                               # τ = ks·small < μ|σn|
     t = step(m, st, [dn, small, 0])              # stick: τ = ks·u (ks = kn at ν = 0, blocks)

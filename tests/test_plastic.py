@@ -4,7 +4,6 @@ C1, C2) with elastic–perfectly-plastic springs.
 On a block lattice uniaxial stress loads only the normal springs, so the
 calibrated uniaxial yield stress of the mesh is σy itself (VERIFICATION,
 General: limit loads are compared with the calibrated value)."""
-import textwrap
 
 import numpy as np
 import pytest

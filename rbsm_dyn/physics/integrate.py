@@ -14,7 +14,6 @@ the velocity [m/s] or displacement [m]; `dof_hist` an amplitude table index
 (−1: constant 1).  Amplitude tables are piecewise linear (hist_ptr, hist_t,
 hist_a).
 """
-import math
 
 import numba as nb
 import numpy as np

@@ -19,7 +19,6 @@ of the stiffness), advanced at a unit step h = 1 with one of two dampings:
 import math
 
 import numba as nb
-import numpy as np
 
 from .integrate import DISPLACEMENT, FIXED, FREE, gather, refresh_rotation
 from .rotation import quat_mul

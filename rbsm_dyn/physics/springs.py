@@ -15,7 +15,6 @@ mid rotation increment of the two bodies, Δq_m = normalize(Δq_a ± Δq_b),
 Traction (Kawai 1978, eq. 13 form): σn = k_n δn, τs = k_s δs, τt = k_t δt;
 `spring_k` already holds stiffness × area [N/m].
 """
-import math
 
 import numba as nb
 import numpy as np

@@ -19,7 +19,7 @@ import numpy as np
 
 from .. import __version__
 from ..io.history import HistoryWriter
-from ..physics.rotation import quat_matrix_np, quat_mul_np
+from ..physics.rotation import quat_mul_np
 from ..physics.inelastic import inelastic_strain_energy
 from ..physics.laws import BROKEN
 from ..physics.springs import elastic_energy, spring_local_gap

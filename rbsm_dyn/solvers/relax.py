@@ -17,7 +17,7 @@ import numpy as np
 from ..model import dof_row_sums, new_state
 from ..physics.integrate import refresh_all_rotations
 from ..physics.relax import ADAPTIVE, LOCAL, run_relax
-from .explicit import RunFailed, synchronize  # noqa: F401  (re-exported)
+from .explicit import RunFailed  # noqa: F401  (re-exported)
 
 GERSHGORIN_SAFETY = 0.81   # λ_max(M⁻¹K) ≤ 4·0.81 at a unit step
 
@@ -179,7 +179,6 @@ def record_frame(recorder, model, state, step, lam, ratio):
     spring_pass(model, state)
     n = model.n_bodies
     zero = np.zeros((n, 3))
-    u = state.body_pos[:-1] - model.body_pos0[:-1]
     work = load_work(model, state, lam)
     obs = {"kinetic": 0.0, "strain": recorder.strain_energy(state), "external_work": work,
            "damping": 0.0, "residual": float(ratio)}

@@ -12,6 +12,9 @@ built once per run from the materials of the spring's two bodies
 spring's area.  Spring states (history `springs/state`): 0 elastic,
 1 yielded, 2 broken (open), 3 contact (broken and closed).
 """
+__all__ = ["CONTACT_OFF", "contact_traction", "CRITERIA", "plastic_return", "RUPTURE_KINDS",
+           "ELASTIC", "YIELDED", "BROKEN", "CONTACT", "N_PARAMS"]
+
 from .contact import CONTACT_OFF, contact_traction  # noqa: F401
 from .plastic import CRITERIA, plastic_return  # noqa: F401
 from .rupture import RUPTURE_KINDS  # noqa: F401
