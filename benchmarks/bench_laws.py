@@ -104,7 +104,7 @@ def fractions(model, st):
                 contact=np.count_nonzero(s == 3) / S, active=0.0)
 
 
-STATE_ARRAYS = ("body_pos", "body_quat", "body_vel", "body_angmom", "spring_force",
+STATE_ARRAYS = ("body_pos", "body_quat", "body_vel", "body_angmom", "body_wrench",
                 "spring_state", "spring_dp", "spring_kappa", "spring_dmg", "spring_wp",
                 "spring_wf")
 

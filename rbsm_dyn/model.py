@@ -14,6 +14,7 @@ import numpy as np
 
 from .calibration import stiffness_pair
 from .mesh import block_mesh, principal_axes, spring_points, voronoi_mesh
+from .partition import spring_schedule
 from .physics.integrate import DISPLACEMENT, FIXED, VELOCITY, refresh_all_rotations
 from .physics.laws import (BROKEN, CONTACT_OFF, CRITERIA, ELASTIC, N_PARAMS, P_COH, P_CRIT,
                            P_EPSCR, P_FT, P_GF, P_MU, P_RUPT, P_SY, P_TANPHI, P_TENSION,
@@ -37,8 +38,9 @@ class Model:
       spring_bodies (S, 2) int32 (a, b), b == N for a support (ground);
       spring_arm_a, spring_arm_b (S, 3) [m] arms in the principal frames
       (the ground's frame is the world frame); spring_frame0 (S, 4) quaternion
-      of the reference frame (n, s, t) with n from a to b; spring_k (S, 3)
-      [N/m] = (k_n, k_s, k_t) × area; spring_point, spring_normal (S, 3);
+      of the reference frame (n, s, t) with n from a to b; spring_n0 (S, 3)
+      its n (world, reference); spring_k (S, 3) [N/m] = (k_n, k_s, k_t) × area;
+      spring_point, spring_normal (S, 3);
       spring_area, spring_h (S,) [m², m]; spring_face (S,) int32 (internal
       face id, or −1 − boundary face id for supports).
     Spring laws (physics/laws/): spring_law (S,) int32 row of law_params
@@ -47,7 +49,9 @@ class Model:
       can yield at the face, where beam theory puts the hinge);
       spring_state0 (S,) int8 initial state (cuts: 2, broken);
       inelastic: bool, True when any law or cut needs the inelastic kernel.
-    CSR body -> springs: csr_ptr (N+1,), csr_spring (K,), csr_sign (K,) (+1 a, −1 b).
+    Schedule (partition.py): springs are stored by group, then (a, b);
+      group_ptr (G+1,) spring ranges of the groups, phase_ptr (F+1,) group
+      ranges of the phases (groups of a phase share no body).
     Constraints: dof_kind (N, 6) int8 (0 free, 1 fixed, 2 velocity, 3
       displacement), dof_value (N, 6), dof_hist (N, 6) int32.
     Loads: body_fext, body_mext (N, 3) [N, N m], body_load_hist (N,) int32,
@@ -65,14 +69,14 @@ class Model:
     spring_arm_b: np.ndarray
     spring_frame0: np.ndarray
     spring_k: np.ndarray
+    spring_n0: np.ndarray
     spring_point: np.ndarray
     spring_normal: np.ndarray
     spring_area: np.ndarray
     spring_h: np.ndarray
     spring_face: np.ndarray
-    csr_ptr: np.ndarray
-    csr_spring: np.ndarray
-    csr_sign: np.ndarray
+    group_ptr: np.ndarray
+    phase_ptr: np.ndarray
     dof_kind: np.ndarray
     dof_value: np.ndarray
     dof_hist: np.ndarray
@@ -123,7 +127,11 @@ class State:
     body_pos (N+1, 3) [m]; body_quat (N+1, 4); body_vel (N+1, 3) [m/s] at
     the half step; body_angmom (N+1, 3) [kg m²/s] world, half step;
     body_rot (N+1, 3, 3), body_dq (N+1, 4) derived from body_quat;
-    spring_force, spring_mid (S, 3); body_work, body_damp (N,) [J] accumulated;
+    body_wrench (N+1, 6) [N, N m]: sum of the spring forces and moments
+    (about the body's centre) on each body, body_support (N+1, 3) [N]: the
+    part of the force from support springs (both written by the spring
+    kernels); spring_force (S, 3) [N]: force on body a, written only when a
+    kernel is asked to (output steps); body_work, body_damp (N,) [J] accumulated;
     body_reaction (N, 3) [N]; step (int), dt [s].
     Inelastic springs (length S when Model.inelastic, else 0):
     spring_state (S,) int8; spring_dp (S, 3) [m] plastic gap or slip;
@@ -135,8 +143,9 @@ class State:
     body_angmom: np.ndarray
     body_rot: np.ndarray
     body_dq: np.ndarray
+    body_wrench: np.ndarray
+    body_support: np.ndarray
     spring_force: np.ndarray
-    spring_mid: np.ndarray
     body_work: np.ndarray
     body_damp: np.ndarray
     body_reaction: np.ndarray
@@ -159,7 +168,8 @@ def new_state(model):
     st = State(body_pos=model.body_pos0.copy(), body_quat=model.body_quat0.copy(),
                body_vel=np.zeros((n + 1, 3)), body_angmom=np.zeros((n + 1, 3)),
                body_rot=np.zeros((n + 1, 3, 3)), body_dq=np.zeros((n + 1, 4)),
-               spring_force=np.zeros((s, 3)), spring_mid=np.zeros((s, 3)),
+               body_wrench=np.zeros((n + 1, 6)), body_support=np.zeros((n + 1, 3)),
+               spring_force=np.zeros((s, 3)),
                body_work=np.zeros(n), body_damp=np.zeros(n), body_reaction=np.zeros((n, 3)))
     si = s if model.inelastic else 0
     st.spring_state = model.spring_state0.copy() if si else np.zeros(0, dtype=np.int8)
@@ -192,6 +202,13 @@ def _frames_from_normals(normal):
     t = np.cross(normal, s)
     R = np.stack([normal, s, t], axis=2)
     return np.array([matrix_to_quat(r) for r in R]) if len(R) else np.zeros((0, 4))
+
+
+def _frame_normals(frame):
+    """First column n of the rotation of each frame quaternion (S, 4) -> (S, 3)."""
+    w, x, y, z = frame.T
+    return np.ascontiguousarray(np.stack([1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y + w * z),
+                                          2.0 * (x * z - w * y)], axis=1))
 
 
 def elastic_law_row():
@@ -374,21 +391,13 @@ def build_model(case, mesh=None):
 
     parts = [internal] + sup
     cat = {key: np.concatenate([p[key] for p in parts]) for key in internal}
+    # spring order of the thread-safe schedule (partition.py): by group, then (a, b)
+    order, group_ptr, phase_ptr = spring_schedule(np.stack([cat["a"], cat["b"]], axis=1), n)
+    cat = {key: v[order] for key, v in cat.items()}
     sb = np.stack([cat["a"], cat["b"]], axis=1).astype(IDX)
     rot_all = np.concatenate([rot0, np.eye(3)[None]])
     arm_a = np.einsum("ski,sk->si", rot_all[sb[:, 0]], cat["point"] - pos0[sb[:, 0]])
     arm_b = np.einsum("ski,sk->si", rot_all[sb[:, 1]], cat["point"] - pos0[sb[:, 1]])
-
-    # CSR body -> springs, in spring order per body (deterministic gather)
-    ends = np.concatenate([sb[:, 0], sb[:, 1]])
-    sid = np.concatenate([np.arange(len(sb)), np.arange(len(sb))])
-    sign = np.concatenate([np.ones(len(sb)), -np.ones(len(sb))])
-    mask = ends < n
-    order = np.lexsort((sid[mask], ends[mask]))
-    csr_spring = sid[mask][order].astype(IDX)
-    csr_sign = sign[mask][order]
-    csr_ptr = np.zeros(n + 1, dtype=IDX)
-    np.cumsum(np.bincount(ends[mask], minlength=n), out=csr_ptr[1:])
 
     # constraints and prescribed motion
     hist_t, hist_a, hist_ptr = [], [], [0]
@@ -458,10 +467,11 @@ def build_model(case, mesh=None):
         body_material=body_material, body_pos0=pos0, body_quat0=quat0,
         spring_bodies=sb, spring_arm_a=np.ascontiguousarray(arm_a),
         spring_arm_b=np.ascontiguousarray(arm_b), spring_frame0=cat["frame"],
-        spring_k=np.ascontiguousarray(cat["k"]), spring_point=cat["point"],
+        spring_k=np.ascontiguousarray(cat["k"]), spring_n0=_frame_normals(cat["frame"]),
+        spring_point=cat["point"],
         spring_normal=cat["normal"], spring_area=cat["area"], spring_h=cat["h"],
-        spring_face=cat["face"].astype(IDX), csr_ptr=csr_ptr, csr_spring=csr_spring,
-        csr_sign=csr_sign, dof_kind=dof_kind, dof_value=dof_value, dof_hist=dof_hist,
+        spring_face=cat["face"].astype(IDX), group_ptr=group_ptr, phase_ptr=phase_ptr,
+        dof_kind=dof_kind, dof_value=dof_value, dof_hist=dof_hist,
         body_fext=fext, body_mext=mext, body_load_hist=load_hist, gravity=gravity,
         hist_ptr=np.asarray(hist_ptr, dtype=IDX), hist_t=np.asarray(hist_t, float),
         hist_a=np.asarray(hist_a, float), groups=groups, materials=materials, mesh=mesh,

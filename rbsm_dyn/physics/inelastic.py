@@ -3,8 +3,8 @@
 Chosen once per run instead of springs.elastic_spring_pass when the model
 asks for any inelastic physics (Model.inelastic), so that a purely elastic
 scene pays nothing for them (DESIGN.md §5).  Same contract as the elastic
-pass: per spring s it writes the force on body a (`spring_force[s]`, world
-[N]) and the point where it acts (`spring_mid[s]`), nothing per body.
+pass: per spring s it adds its wrench to its two bodies' accumulators in
+the thread-safe schedule (springs.deposit, partition.py).
 
 Per-spring history (State): spring_state (S,) int8 (laws/__init__.py),
 spring_dp (S, 3) [m] plastic gap (intact) or slip (broken, components 1–2)
@@ -33,8 +33,7 @@ from .laws import (BROKEN, CONTACT, P_COH, P_CRIT, P_EPSCR, P_FT, P_GF, P_MU,
 from .laws.contact import CONTACT_OFF, contact_traction
 from .laws.plastic import plastic_return
 from .laws.rupture import SOFTENING, STRAIN, equivalent_strain, softening_damage
-from .integrate import dynamic_body_pass
-from .springs import gap_and_frame
+from .springs import clear_wrenches, deposit_b, flush_a, gap_and_frame
 
 JIT = dict(cache=True, nogil=True, fastmath=False, error_model="numpy")
 
@@ -45,104 +44,147 @@ def _contact_energy(kn, dn):
 
 
 @nb.njit(parallel=True, **JIT)
-def inelastic_spring_pass(spring_bodies, spring_arm_a, spring_arm_b, spring_frame0, spring_k,
-                          spring_area, spring_h, spring_law, law_params,
-                          body_pos, body_rot, body_dq, spring_force, spring_mid,
+def _inelastic_phase(lo, hi, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
+                     spring_frame0, spring_k, spring_area, spring_h, spring_law, law_params,
+                     body_pos, body_rot, body_dq, body_wrench, body_support,
+                     spring_state, spring_dp, spring_kappa, spring_dmg, spring_wp, spring_wf,
+                     store, spring_force):
+    for g in nb.prange(lo, hi):
+        s0 = group_ptr[g]
+        s1 = group_ptr[g + 1]
+        if s1 == s0:
+            continue
+        cur = spring_bodies[s0, 0]
+        w0 = w1 = w2 = w3 = w4 = w5 = 0.0
+        for s in range(s0, s1):
+            (d0, d1, d2, m0, m1, m2,
+             F00, F01, F02, F10, F11, F12, F20, F21, F22) = gap_and_frame(
+                s, spring_bodies, spring_arm_a, spring_arm_b, spring_frame0,
+                body_pos, body_rot, body_dq)
+            dn = F00 * d0 + F10 * d1 + F20 * d2
+            ds = F01 * d0 + F11 * d1 + F21 * d2
+            dt = F02 * d0 + F12 * d1 + F22 * d2
+            kn = spring_k[s, 0]
+            ks = spring_k[s, 1]
+            kt = spring_k[s, 2]
+            area = spring_area[s]
+            P = law_params[spring_law[s]]
+            state = spring_state[s]
+            fn = fs = ft = 0.0
+            if state < BROKEN:
+                en = dn - spring_dp[s, 0]
+                es = ds - spring_dp[s, 1]
+                et = dt - spring_dp[s, 2]
+                dmg = spring_dmg[s]
+                rupt = P[P_RUPT]
+                if rupt == SOFTENING:
+                    kappa = spring_kappa[s]
+                    if en > kappa:
+                        kappa = en
+                        spring_kappa[s] = kappa
+                        dnew = softening_damage(kappa, kn / area, P[P_FT], P[P_GF])
+                        if dnew > dmg:
+                            # energy release rate Y = ½ k e² (undamaged springs)
+                            y = 0.5 * (kn * en * en + ks * es * es + kt * et * et)
+                            spring_wf[s] += y * (dnew - dmg)
+                            dmg = dnew
+                            spring_dmg[s] = dmg
+                fn = kn * en
+                if fn > 0.0:
+                    fn *= 1.0 - dmg          # a crack transmits no tension ...
+                fs = (1.0 - dmg) * ks * es   # ... and less shear
+                ft = (1.0 - dmg) * kt * et
+                crit = P[P_CRIT]
+                if crit > 0:
+                    a = area
+                    gn, gs, gt, yielded = plastic_return(int(crit), P[P_SY] * a, P[P_COH] * a,
+                                                         P[P_TANPHI], P[P_TENSION] * a,
+                                                         kn, ks, fn, fs, ft)
+                    if yielded:
+                        # (a support may hold only some components: k = 0 there)
+                        pn = (fn - gn) / kn if kn > 0.0 else 0.0
+                        ps = (fs - gs) / ks if ks > 0.0 else 0.0
+                        pt = (ft - gt) / kt if kt > 0.0 else 0.0
+                        spring_dp[s, 0] += pn
+                        spring_dp[s, 1] += ps
+                        spring_dp[s, 2] += pt
+                        spring_wp[s] += gn * pn + gs * ps + gt * pt
+                        fn, fs, ft = gn, gs, gt
+                        en -= pn
+                        es -= ps
+                        et -= pt
+                        state = YIELDED
+                broken = dmg >= 1.0
+                if rupt == STRAIN and equivalent_strain(dn, ds, dt, spring_h[s]) >= P[P_EPSCR]:
+                    broken = True
+                if broken:
+                    # stored energy before (with damage) minus what contact keeps
+                    e_in = 0.5 * (fn * en + fs * es + ft * et)
+                    spring_wf[s] += e_in - _contact_energy(kn, dn)
+                    state = BROKEN
+                    spring_dp[s, 0] = 0.0
+                    spring_dp[s, 1] = ds
+                    spring_dp[s, 2] = dt
+                spring_state[s] = state
+            if state >= BROKEN:
+                if dn * dn + ds * ds + dt * dt > spring_h[s] * spring_h[s]:
+                    # moved apart by a whole spring length (opened, slid or turned
+                    # away): the two cells have parted and no longer meet at this
+                    # face (RBSM contact is between the original neighbours only)
+                    spring_kappa[s] = np.inf
+                ss0 = spring_dp[s, 1]
+                st0 = spring_dp[s, 2]
+                mu = P[P_MU] if spring_kappa[s] != np.inf else CONTACT_OFF
+                fn, fs, ft, ss1, st1, closed = contact_traction(mu, kn, ks, dn, ds, dt, ss0, st0)
+                if closed:
+                    # friction work on the slip increment
+                    spring_wp[s] += fs * (ss1 - ss0) + ft * (st1 - st0)
+                spring_dp[s, 1] = ss1
+                spring_dp[s, 2] = st1
+                spring_state[s] = CONTACT if closed else BROKEN
+            f0 = F00 * fn + F01 * fs + F02 * ft
+            f1 = F10 * fn + F11 * fs + F12 * ft
+            f2 = F20 * fn + F21 * fs + F22 * ft
+            ba = spring_bodies[s, 0]
+            if ba != cur:
+                flush_a(cur, w0, w1, w2, w3, w4, w5, body_wrench)
+                cur = ba
+                w0 = w1 = w2 = w3 = w4 = w5 = 0.0
+            # force f at m on body a: moment (m − x_a) × f (springs.py)
+            r0 = m0 - body_pos[ba, 0]
+            r1 = m1 - body_pos[ba, 1]
+            r2 = m2 - body_pos[ba, 2]
+            w0 += f0
+            w1 += f1
+            w2 += f2
+            w3 += r1 * f2 - r2 * f1
+            w4 += r2 * f0 - r0 * f2
+            w5 += r0 * f1 - r1 * f0
+            deposit_b(s, ba, f0, f1, f2, m0, m1, m2, spring_bodies, body_pos, body_wrench,
+                      body_support)
+            if store:
+                spring_force[s, 0] = f0
+                spring_force[s, 1] = f1
+                spring_force[s, 2] = f2
+        flush_a(cur, w0, w1, w2, w3, w4, w5, body_wrench)
+
+
+@nb.njit(**JIT)
+def inelastic_spring_pass(phase_ptr, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
+                          spring_frame0, spring_k, spring_area, spring_h, spring_law,
+                          law_params, body_pos, body_rot, body_dq, body_wrench, body_support,
                           spring_state, spring_dp, spring_kappa, spring_dmg,
-                          spring_wp, spring_wf):
-    """Forces of elastic–plastic, rupturing and contact springs (see module)."""
-    for s in nb.prange(spring_bodies.shape[0]):
-        (d0, d1, d2, m0, m1, m2,
-         F00, F01, F02, F10, F11, F12, F20, F21, F22) = gap_and_frame(
-            s, spring_bodies, spring_arm_a, spring_arm_b, spring_frame0,
-            body_pos, body_rot, body_dq)
-        dn = F00 * d0 + F10 * d1 + F20 * d2
-        ds = F01 * d0 + F11 * d1 + F21 * d2
-        dt = F02 * d0 + F12 * d1 + F22 * d2
-        kn = spring_k[s, 0]
-        ks = spring_k[s, 1]
-        kt = spring_k[s, 2]
-        area = spring_area[s]
-        P = law_params[spring_law[s]]
-        state = spring_state[s]
-        fn = fs = ft = 0.0
-        if state < BROKEN:
-            en = dn - spring_dp[s, 0]
-            es = ds - spring_dp[s, 1]
-            et = dt - spring_dp[s, 2]
-            dmg = spring_dmg[s]
-            rupt = P[P_RUPT]
-            if rupt == SOFTENING:
-                kappa = spring_kappa[s]
-                if en > kappa:
-                    kappa = en
-                    spring_kappa[s] = kappa
-                    dnew = softening_damage(kappa, kn / area, P[P_FT], P[P_GF])
-                    if dnew > dmg:
-                        # energy release rate Y = ½ k e² (undamaged springs)
-                        y = 0.5 * (kn * en * en + ks * es * es + kt * et * et)
-                        spring_wf[s] += y * (dnew - dmg)
-                        dmg = dnew
-                        spring_dmg[s] = dmg
-            fn = kn * en
-            if fn > 0.0:
-                fn *= 1.0 - dmg          # a crack transmits no tension ...
-            fs = (1.0 - dmg) * ks * es   # ... and less shear
-            ft = (1.0 - dmg) * kt * et
-            crit = P[P_CRIT]
-            if crit > 0:
-                a = area
-                gn, gs, gt, yielded = plastic_return(int(crit), P[P_SY] * a, P[P_COH] * a,
-                                                     P[P_TANPHI], P[P_TENSION] * a,
-                                                     kn, ks, fn, fs, ft)
-                if yielded:
-                    # (a support may hold only some components: k = 0 there)
-                    pn = (fn - gn) / kn if kn > 0.0 else 0.0
-                    ps = (fs - gs) / ks if ks > 0.0 else 0.0
-                    pt = (ft - gt) / kt if kt > 0.0 else 0.0
-                    spring_dp[s, 0] += pn
-                    spring_dp[s, 1] += ps
-                    spring_dp[s, 2] += pt
-                    spring_wp[s] += gn * pn + gs * ps + gt * pt
-                    fn, fs, ft = gn, gs, gt
-                    en -= pn
-                    es -= ps
-                    et -= pt
-                    state = YIELDED
-            broken = dmg >= 1.0
-            if rupt == STRAIN and equivalent_strain(dn, ds, dt, spring_h[s]) >= P[P_EPSCR]:
-                broken = True
-            if broken:
-                # stored energy before (with damage) minus what contact keeps
-                e_in = 0.5 * (fn * en + fs * es + ft * et)
-                spring_wf[s] += e_in - _contact_energy(kn, dn)
-                state = BROKEN
-                spring_dp[s, 0] = 0.0
-                spring_dp[s, 1] = ds
-                spring_dp[s, 2] = dt
-            spring_state[s] = state
-        if state >= BROKEN:
-            if dn * dn + ds * ds + dt * dt > spring_h[s] * spring_h[s]:
-                # moved apart by a whole spring length (opened, slid or turned
-                # away): the two cells have parted and no longer meet at this
-                # face (RBSM contact is between the original neighbours only)
-                spring_kappa[s] = np.inf
-            ss0 = spring_dp[s, 1]
-            st0 = spring_dp[s, 2]
-            mu = P[P_MU] if spring_kappa[s] != np.inf else CONTACT_OFF
-            fn, fs, ft, ss1, st1, closed = contact_traction(mu, kn, ks, dn, ds, dt, ss0, st0)
-            if closed:
-                # friction work on the slip increment
-                spring_wp[s] += fs * (ss1 - ss0) + ft * (st1 - st0)
-            spring_dp[s, 1] = ss1
-            spring_dp[s, 2] = st1
-            spring_state[s] = CONTACT if closed else BROKEN
-        spring_force[s, 0] = F00 * fn + F01 * fs + F02 * ft
-        spring_force[s, 1] = F10 * fn + F11 * fs + F12 * ft
-        spring_force[s, 2] = F20 * fn + F21 * fs + F22 * ft
-        spring_mid[s, 0] = m0
-        spring_mid[s, 1] = m1
-        spring_mid[s, 2] = m2
+                          spring_wp, spring_wf, store, spring_force):
+    """Forces of elastic–plastic, rupturing and contact springs (see module),
+    summed into the bodies' wrenches in the schedule of partition.py;
+    `store`: also write each spring's force (output steps)."""
+    clear_wrenches(body_wrench, body_support)
+    for ph in range(phase_ptr.shape[0] - 1):
+        _inelastic_phase(phase_ptr[ph], phase_ptr[ph + 1], group_ptr, spring_bodies,
+                         spring_arm_a, spring_arm_b, spring_frame0, spring_k, spring_area,
+                         spring_h, spring_law, law_params, body_pos, body_rot, body_dq,
+                         body_wrench, body_support, spring_state, spring_dp, spring_kappa,
+                         spring_dmg, spring_wp, spring_wf, store, spring_force)
 
 
 def inelastic_strain_energy(spring_k, delta, spring_state, spring_dp, spring_dmg):
@@ -162,36 +204,3 @@ def inelastic_strain_energy(spring_k, delta, spring_state, spring_dp, spring_dmg
     u_contact = 0.5 * np.sum((k[:, 0] * np.minimum(dn, 0.0) ** 2
                               + k[:, 1] * e[:, 1] ** 2 + k[:, 2] * e[:, 2] ** 2)[closed])
     return float(u_intact + u_contact)
-
-
-
-@nb.njit(**JIT)
-def run_dynamic_inelastic(n_steps, step0, dt, ground,
-                          spring_bodies, spring_arm_a, spring_arm_b, spring_frame0, spring_k,
-                          spring_area, spring_h, spring_law, law_params,
-                          spring_state, spring_dp, spring_kappa, spring_dmg,
-                          spring_wp, spring_wf, spring_force, spring_mid,
-                          csr_ptr, csr_spring, csr_sign,
-                          body_mass, body_inertia, body_pos, body_pos0, body_quat, body_quat0,
-                          body_vel, body_angmom, body_rot, body_dq,
-                          body_fext, body_mext, body_load_hist, gravity, damping_alpha,
-                          dof_kind, dof_value, dof_hist, hist_ptr, hist_t, hist_a,
-                          body_work, body_damp, body_reaction):
-    """integrate.run_dynamic with the inelastic spring pass: n_steps
-    explicit steps inside compiled code (springs at x_n -> bodies gather,
-    kick, drift)."""
-    for k in range(n_steps):
-        t = (step0 + k) * dt
-        inelastic_spring_pass(spring_bodies, spring_arm_a, spring_arm_b, spring_frame0,
-                              spring_k, spring_area, spring_h, spring_law, law_params,
-                              body_pos, body_rot, body_dq, spring_force, spring_mid,
-                              spring_state, spring_dp, spring_kappa, spring_dmg,
-                              spring_wp, spring_wf)
-        dynamic_body_pass(t, dt, ground, csr_ptr, csr_spring, csr_sign, spring_bodies,
-                          spring_force, spring_mid,
-                          body_mass, body_inertia, body_pos, body_pos0, body_quat,
-                          body_quat0, body_vel, body_angmom, body_rot, body_dq,
-                          body_fext, body_mext, body_load_hist, gravity, damping_alpha,
-                          dof_kind, dof_value, dof_hist, hist_ptr, hist_t, hist_a,
-                          body_work, body_damp, body_reaction)
-    return step0 + n_steps

@@ -1,5 +1,5 @@
-"""Body kernels: gather spring forces per body (CSR, no atomics), apply
-loads and constraints, and advance bodies.
+"""Body kernels: read each body's spring wrench (summed by the spring pass,
+physics/springs.py), apply loads and constraints, and advance bodies.
 
 Translations: leapfrog central difference (v at half steps, x at whole
 steps; e.g. Belytschko, Liu & Moran, Nonlinear FE, §6.2).  Rotations: world
@@ -16,12 +16,12 @@ hist_a).
 """
 
 import numba as nb
-import numpy as np
 
 from .rotation import dlm_free_rotor, quat_mul, quat_to_matrix
+from .inelastic import inelastic_spring_pass
 from .springs import elastic_spring_pass
 
-JIT = dict(cache=True, nogil=True, fastmath=False, error_model="numpy")
+JIT = dict(cache=True, nogil=True, fastmath={"contract"}, error_model="numpy")
 
 FREE, FIXED, VELOCITY, DISPLACEMENT = 0, 1, 2, 3
 
@@ -41,37 +41,6 @@ def amplitude(h, t, hist_ptr, hist_t, hist_a):
             w = (t - hist_t[i - 1]) / (hist_t[i] - hist_t[i - 1])
             return hist_a[i - 1] + w * (hist_a[i] - hist_a[i - 1])
     return hist_a[i1 - 1]
-
-
-@nb.njit(inline="always", **JIT)
-def gather(i, ground, csr_ptr, csr_spring, csr_sign, spring_bodies, spring_force,
-           spring_mid, body_pos):
-    """Sum of spring forces and moments on body i (fx, fy, fz, mx, my, mz)
-    and the part of the force that comes from support springs (to the
-    ground), as nine scalars."""
-    F0 = F1 = F2 = M0 = M1 = M2 = S0 = S1 = S2 = 0.0
-    x0, x1, x2 = body_pos[i, 0], body_pos[i, 1], body_pos[i, 2]
-    for k in range(csr_ptr[i], csr_ptr[i + 1]):
-        # spring ids are never negative: unsigned skips Numba's wraparound code
-        s = np.uint64(csr_spring[k])
-        sg = csr_sign[k]
-        f0 = sg * spring_force[s, 0]
-        f1 = sg * spring_force[s, 1]
-        f2 = sg * spring_force[s, 2]
-        r0 = spring_mid[s, 0] - x0
-        r1 = spring_mid[s, 1] - x1
-        r2 = spring_mid[s, 2] - x2
-        F0 += f0
-        F1 += f1
-        F2 += f2
-        M0 += r1 * f2 - r2 * f1
-        M1 += r2 * f0 - r0 * f2
-        M2 += r0 * f1 - r1 * f0
-        if spring_bodies[s, 1] == ground:
-            S0 += f0
-            S1 += f1
-            S2 += f2
-    return F0, F1, F2, M0, M1, M2, S0, S1, S2
 
 
 @nb.njit(inline="always", **JIT)
@@ -157,24 +126,22 @@ def rotate_body(i, dt, inertia, body_quat, body_angmom, body_rot):
 
 
 @nb.njit(parallel=True, **JIT)
-def dynamic_body_pass(t, dt, ground, csr_ptr, csr_spring, csr_sign, spring_bodies,
-                      spring_force, spring_mid,
+def dynamic_body_pass(t, dt, body_wrench,
                       body_mass, body_inertia, body_pos, body_pos0, body_quat, body_quat0,
                       body_vel, body_angmom, body_rot, body_dq,
                       body_fext, body_mext, body_load_hist, gravity, damping_alpha,
                       dof_kind, dof_value, dof_hist, hist_ptr, hist_t, hist_a,
-                      body_work, body_damp, body_reaction):
+                      body_work, body_damp):
     """One leapfrog step of every body, from forces at time t to t + dt.
 
     Accumulates per body the work of external loads and constraints
     (`body_work` [J]) and the energy dissipated by mass-proportional damping
-    (`body_damp` [J]); `body_reaction` gets the force of supports and
-    constraints on the body at time t [N]."""
+    (`body_damp` [J]).  Reactions are computed at output steps only
+    (synchronized_momenta)."""
     n = body_mass.shape[0]
     c = 0.5 * damping_alpha * dt
     for i in nb.prange(n):
-        g = gather(i, ground, csr_ptr, csr_spring, csr_sign, spring_bodies, spring_force,
-                   spring_mid, body_pos)
+        g = body_wrench[i]
         m = body_mass[i]
         amp = amplitude(body_load_hist[i], t, hist_ptr, hist_t, hist_a)
         work = 0.0
@@ -187,7 +154,6 @@ def dynamic_body_pass(t, dt, ground, csr_ptr, csr_spring, csr_sign, spring_bodie
             if kind == FREE:
                 # mass-proportional damping, central difference (c = α dt / 2)
                 v_new = ((1.0 - c) * v_old + dt * f / m) / (1.0 + c)
-                reaction = g[6 + k]
             else:
                 if kind == FIXED:
                     v_new = 0.0
@@ -200,14 +166,12 @@ def dynamic_body_pass(t, dt, ground, csr_ptr, csr_spring, csr_sign, spring_bodie
                     v_new = (target - body_pos[i, k]) / dt
                 # force the constraint adds so that m a = f + r
                 r = m * (v_new - v_old) / dt - f
-                reaction = g[6 + k] + r
                 work += r * v_new * dt
             work += fext * v_new * dt
             va = 0.5 * (v_old + v_new)
             damp += damping_alpha * m * va * va * dt
             body_vel[i, k] = v_new
             body_pos[i, k] += v_new * dt
-            body_reaction[i, k] = reaction
         # rotation: kick world L, constrain, free rotor
         L = body_angmom[i]
         inertia = body_inertia[i]
@@ -232,34 +196,44 @@ def dynamic_body_pass(t, dt, ground, csr_ptr, csr_spring, csr_sign, spring_bodie
 
 
 @nb.njit(**JIT)
-def run_dynamic(n_steps, step0, dt, ground,
-                spring_bodies, spring_arm_a, spring_arm_b, spring_frame0, spring_k,
-                spring_force, spring_mid,
-                csr_ptr, csr_spring, csr_sign,
+def run_dynamic(n_steps, step0, dt, inelastic,
+                spring_bodies, spring_arm_a, spring_arm_b, spring_frame0, spring_n0, spring_k,
+                spring_area, spring_h, spring_law, law_params,
+                spring_state, spring_dp, spring_kappa, spring_dmg, spring_wp, spring_wf,
+                phase_ptr, group_ptr, body_wrench, body_support, spring_force,
                 body_mass, body_inertia, body_pos, body_pos0, body_quat, body_quat0,
                 body_vel, body_angmom, body_rot, body_dq,
                 body_fext, body_mext, body_load_hist, gravity, damping_alpha,
                 dof_kind, dof_value, dof_hist, hist_ptr, hist_t, hist_a,
-                body_work, body_damp, body_reaction):
+                body_work, body_damp):
     """Advance n_steps explicit steps inside compiled code.  Step order:
-    springs at x_n (forces on a, midpoints) → bodies gather, kick, drift."""
+    springs at x_n (summed into the body wrenches) → bodies kick, drift.  The spring kernel is the elastic one unless `inelastic` (yield,
+    rupture, contact: physics/inelastic.py, with the per-spring history
+    arrays; empty otherwise)."""
     for k in range(n_steps):
         t = (step0 + k) * dt
-        elastic_spring_pass(spring_bodies, spring_arm_a, spring_arm_b, spring_frame0,
-                            spring_k, body_pos, body_rot, body_dq, spring_force, spring_mid)
-        dynamic_body_pass(t, dt, ground, csr_ptr, csr_spring, csr_sign, spring_bodies,
-                          spring_force, spring_mid,
+        if inelastic:
+            inelastic_spring_pass(phase_ptr, group_ptr, spring_bodies, spring_arm_a,
+                                  spring_arm_b, spring_frame0, spring_k, spring_area, spring_h,
+                                  spring_law, law_params, body_pos, body_rot, body_dq,
+                                  body_wrench, body_support, spring_state, spring_dp,
+                                  spring_kappa, spring_dmg, spring_wp, spring_wf, False,
+                                  spring_force)
+        else:
+            elastic_spring_pass(phase_ptr, group_ptr, spring_bodies, spring_arm_a,
+                                spring_arm_b, spring_frame0, spring_n0, spring_k, body_pos, body_rot,
+                                body_dq, body_wrench, body_support, False, spring_force)
+        dynamic_body_pass(t, dt, body_wrench,
                           body_mass, body_inertia, body_pos, body_pos0, body_quat,
                           body_quat0, body_vel, body_angmom, body_rot, body_dq,
                           body_fext, body_mext, body_load_hist, gravity, damping_alpha,
                           dof_kind, dof_value, dof_hist, hist_ptr, hist_t, hist_a,
-                          body_work, body_damp, body_reaction)
+                          body_work, body_damp)
     return step0 + n_steps
 
 
 @nb.njit(parallel=True, **JIT)
-def synchronized_momenta(t, dt, ground, csr_ptr, csr_spring, csr_sign, spring_bodies,
-                         spring_force, spring_mid, body_mass, body_pos, body_vel,
+def synchronized_momenta(t, dt, body_wrench, body_support, body_mass, body_vel,
                          body_angmom, body_fext, body_mext, body_load_hist, gravity,
                          dof_kind, dof_value, dof_hist, hist_ptr, hist_t, hist_a,
                          out_vel, out_angmom, out_reaction):
@@ -267,8 +241,8 @@ def synchronized_momenta(t, dt, ground, csr_ptr, csr_spring, csr_sign, spring_bo
     from t − dt/2 with the forces at t; output steps only), and the force
     of supports and constraints on each body at t."""
     for i in nb.prange(body_mass.shape[0]):
-        g = gather(i, ground, csr_ptr, csr_spring, csr_sign, spring_bodies, spring_force,
-                   spring_mid, body_pos)
+        g = body_wrench[i]
+        sup = body_support[i]
         m = body_mass[i]
         amp = amplitude(body_load_hist[i], t, hist_ptr, hist_t, hist_a)
         for k in range(3):
@@ -276,7 +250,7 @@ def synchronized_momenta(t, dt, ground, csr_ptr, csr_spring, csr_sign, spring_bo
             kind = dof_kind[i, k]
             if kind == FREE:
                 out_vel[i, k] = body_vel[i, k] + 0.5 * dt * f / m
-                out_reaction[i, k] = g[6 + k]
+                out_reaction[i, k] = sup[k]
             else:
                 if kind == FIXED:
                     v = 0.0
@@ -285,7 +259,7 @@ def synchronized_momenta(t, dt, ground, csr_ptr, csr_spring, csr_sign, spring_bo
                 else:
                     v = body_vel[i, k]
                 out_vel[i, k] = v
-                out_reaction[i, k] = g[6 + k] - f
+                out_reaction[i, k] = sup[k] - f
             fixed_rot = dof_kind[i, 3 + k] == FIXED
             out_angmom[i, k] = 0.0 if fixed_rot else (
                 body_angmom[i, k] + 0.5 * dt * (g[3 + k] + amp * body_mext[i, k]))

@@ -20,7 +20,7 @@ import math
 
 import numba as nb
 
-from .integrate import DISPLACEMENT, FIXED, FREE, gather, refresh_rotation
+from .integrate import DISPLACEMENT, FIXED, FREE, refresh_rotation
 from .rotation import quat_mul
 from .inelastic import inelastic_spring_pass
 from .springs import elastic_spring_pass
@@ -52,8 +52,7 @@ def _rayleigh(u, v_prev, f, f_prev, m, reset):
 
 
 @nb.njit(parallel=True, **JIT)
-def relax_body_pass(lam, kind, beta, c, reset, ground, csr_ptr, csr_spring, csr_sign,
-                    spring_bodies, spring_force, spring_mid, body_mass_real, fict_mass,
+def relax_body_pass(lam, kind, beta, c, reset, body_wrench, body_support, body_mass_real, fict_mass,
                     fict_inertia, body_pos, body_pos0, body_quat, body_quat0, body_vel,
                     body_angmom, body_rot, body_dq, body_fext, body_mext, gravity,
                     dof_kind, dof_value, arm_length, body_resid, body_reaction,
@@ -67,8 +66,8 @@ def relax_body_pass(lam, kind, beta, c, reset, ground, csr_ptr, csr_spring, csr_
     a new load step, no estimate this iteration); body_num, body_den (N,):
     this body's part of the Rayleigh quotient."""
     for i in nb.prange(fict_mass.shape[0]):
-        g = gather(i, ground, csr_ptr, csr_spring, csr_sign, spring_bodies, spring_force,
-                   spring_mid, body_pos)
+        g = body_wrench[i]
+        sup = body_support[i]
         m = fict_mass[i]
         res = 0.0
         num = 0.0
@@ -87,9 +86,9 @@ def relax_body_pass(lam, kind, beta, c, reset, ground, csr_ptr, csr_spring, csr_
                 v = _damped(v, f, m, kind, beta, c)
                 body_vel[i, k] = v
                 body_pos[i, k] += v
-                body_reaction[i, k] = g[6 + k]
+                body_reaction[i, k] = sup[k]
             else:
-                body_reaction[i, k] = g[6 + k] - f
+                body_reaction[i, k] = sup[k] - f
                 body_vel[i, k] = 0.0
                 if dk == DISPLACEMENT:
                     body_pos[i, k] = body_pos0[i, k] + lam * dof_value[i, k]
@@ -132,11 +131,11 @@ def relax_body_pass(lam, kind, beta, c, reset, ground, csr_ptr, csr_spring, csr_
 
 
 @nb.njit(**JIT)
-def run_relax(n_iter, lam, kind, beta, c, reset, ground,
-              spring_bodies, spring_arm_a, spring_arm_b, spring_frame0, spring_k,
+def run_relax(n_iter, lam, kind, beta, c, reset,
+              spring_bodies, spring_arm_a, spring_arm_b, spring_frame0, spring_n0, spring_k,
               inelastic, spring_area, spring_h, spring_law, law_params,
               spring_state, spring_dp, spring_kappa, spring_dmg, spring_wp, spring_wf,
-              spring_force, spring_mid, csr_ptr, csr_spring, csr_sign,
+              phase_ptr, group_ptr, body_wrench, body_support, spring_force,
               body_mass_real, fict_mass, fict_inertia, body_pos, body_pos0, body_quat,
               body_quat0, body_vel, body_angmom, body_rot, body_dq, body_fext, body_mext,
               gravity, dof_kind, dof_value, arm_length, body_resid, body_reaction,
@@ -147,16 +146,17 @@ def run_relax(n_iter, lam, kind, beta, c, reset, ground,
     for it in range(n_iter):
         first = reset and it == 0
         if inelastic:
-            inelastic_spring_pass(spring_bodies, spring_arm_a, spring_arm_b, spring_frame0,
-                                  spring_k, spring_area, spring_h, spring_law, law_params,
-                                  body_pos, body_rot, body_dq, spring_force, spring_mid,
-                                  spring_state, spring_dp, spring_kappa, spring_dmg,
-                                  spring_wp, spring_wf)
+            inelastic_spring_pass(phase_ptr, group_ptr, spring_bodies, spring_arm_a,
+                                  spring_arm_b, spring_frame0, spring_k, spring_area, spring_h,
+                                  spring_law, law_params, body_pos, body_rot, body_dq,
+                                  body_wrench, body_support, spring_state, spring_dp,
+                                  spring_kappa, spring_dmg, spring_wp, spring_wf, False,
+                                  spring_force)
         else:
-            elastic_spring_pass(spring_bodies, spring_arm_a, spring_arm_b, spring_frame0,
-                                spring_k, body_pos, body_rot, body_dq, spring_force, spring_mid)
-        relax_body_pass(lam, kind, beta, c, first, ground, csr_ptr, csr_spring,
-                        csr_sign, spring_bodies, spring_force, spring_mid, body_mass_real,
+            elastic_spring_pass(phase_ptr, group_ptr, spring_bodies, spring_arm_a,
+                                spring_arm_b, spring_frame0, spring_n0, spring_k, body_pos, body_rot,
+                                body_dq, body_wrench, body_support, False, spring_force)
+        relax_body_pass(lam, kind, beta, c, first, body_wrench, body_support, body_mass_real,
                         fict_mass, fict_inertia, body_pos, body_pos0, body_quat, body_quat0,
                         body_vel, body_angmom, body_rot, body_dq, body_fext, body_mext,
                         gravity, dof_kind, dof_value, arm_length, body_resid, body_reaction,

@@ -1,11 +1,13 @@
 """Spring-point kernels: corotational kinematics and the elastic law.
 
-One pass over spring points writes, per spring s, the force on body a
-(`spring_force[s]`, world frame [N]; body b gets the opposite) and the
-point where it acts (`spring_mid[s]`, the midpoint of the two material
-points [m]).  Nothing is accumulated per body here: bodies gather their
-springs through a CSR map (physics/integrate.py), so there are no atomics
-and results do not depend on the thread count.
+One pass over spring points adds, per spring s, its force [N] and its
+moment about each body's centre [N m] (world frame; the force acts at the
+midpoint of the two material points) straight into the two bodies'
+accumulators `body_wrench` (and the support part into `body_support`).
+The springs run in the schedule of partition.py: the groups of one phase
+share no body, so they run in parallel without atomics, and every body
+gets its sum in one fixed order whatever the thread count.  The body pass
+then reads six numbers per body.
 
 Kinematics (DESIGN.md §1): the material points of spring s are
 p_a = x_a + R_a r_a and p_b = x_b + R_b r_b (arms r in the principal
@@ -21,25 +23,25 @@ import numpy as np
 
 from .rotation import quat_mul
 
-JIT = dict(cache=True, nogil=True, fastmath=False, error_model="numpy")
+JIT = dict(cache=True, nogil=True, fastmath={"contract"}, error_model="numpy")
 
 
 @nb.njit(inline="always", **JIT)
-def gap_and_scaled_frame(s, spring_bodies, spring_arm_a, spring_arm_b, spring_frame0,
-                         body_pos, body_rot, body_dq):
-    """World gap d, midpoint m, scaled spring frame G = n2·F (columns n, s, t)
-    and the scale n2 of spring s.
+def gap_and_mid(s, spring_bodies, spring_arm_a, spring_arm_b, body_pos, body_rot, body_dq):
+    """World gap d = p_b − p_a, midpoint m of the material points, and the
+    unnormalised mid rotation increment q = Δq_a ± Δq_b (sign-aligned) with
+    n2 = |q|² of spring s.
 
-    The mid increment m = Δq_a ± Δq_b is not normalised: p = m ⊗ q0 has
-    |p|² = |m|² = n2 (q0 is a unit quaternion), and the homogeneous form of
-    the rotation matrix gives G = n2·R(p/|p|) without a square root.  The
-    kernels divide by n2 once, off the critical path: a sqrt followed by a
-    division in the chain of every spring made the pass latency-bound
-    (benchmarks/results/elastic.txt).
+    q is not normalised: a rotation by q/|q| is the homogeneous quadratic
+    form in q divided by n2, so the kernels need no square root and divide
+    by n2 once, off the critical path (a sqrt followed by a division in the
+    chain of every spring made the pass latency-bound,
+    benchmarks/results/elastic.txt).
 
-    Returns (d0, d1, d2, m0, m1, m2, G as 9 scalars row-major, n2)."""
-    a = spring_bodies[s, 0]
-    b = spring_bodies[s, 1]
+    Returns (d0, d1, d2, m0, m1, m2, q0, q1, q2, q3, n2)."""
+    # body ids are never negative: unsigned skips Numba's wraparound code
+    a = np.uint64(spring_bodies[s, 0])
+    b = np.uint64(spring_bodies[s, 1])
     ax, ay, az = spring_arm_a[s, 0], spring_arm_a[s, 1], spring_arm_a[s, 2]
     bx, by, bz = spring_arm_b[s, 0], spring_arm_b[s, 1], spring_arm_b[s, 2]
     Ra = body_rot[a]
@@ -55,10 +57,25 @@ def gap_and_scaled_frame(s, spring_bodies, spring_arm_a, spring_arm_b, spring_fr
     qb0, qb1, qb2, qb3 = body_dq[b, 0], body_dq[b, 1], body_dq[b, 2], body_dq[b, 3]
     if qa0 * qb0 + qa1 * qb1 + qa2 * qb2 + qa3 * qb3 < 0.0:
         qb0, qb1, qb2, qb3 = -qb0, -qb1, -qb2, -qb3
-    m0, m1, m2, m3 = qa0 + qb0, qa1 + qb1, qa2 + qb2, qa3 + qb3
-    n2 = m0 * m0 + m1 * m1 + m2 * m2 + m3 * m3
+    q0, q1, q2, q3 = qa0 + qb0, qa1 + qb1, qa2 + qb2, qa3 + qb3
+    n2 = q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3
+    return (pb0 - pa0, pb1 - pa1, pb2 - pa2,
+            0.5 * (pa0 + pb0), 0.5 * (pa1 + pb1), 0.5 * (pa2 + pb2), q0, q1, q2, q3, n2)
+
+
+@nb.njit(inline="always", **JIT)
+def gap_and_scaled_frame(s, spring_bodies, spring_arm_a, spring_arm_b, spring_frame0,
+                         body_pos, body_rot, body_dq):
+    """World gap d, midpoint m, scaled spring frame G = n2·F (columns n, s, t)
+    and the scale n2 of spring s: the frame is p = q ⊗ q0 with q the
+    unnormalised mid increment (gap_and_mid), |p|² = n2, and the homogeneous
+    form of the rotation matrix gives G = n2·R(p/|p|).
+
+    Returns (d0, d1, d2, m0, m1, m2, G as 9 scalars row-major, n2)."""
+    (d0, d1, d2, m0, m1, m2, q0, q1, q2, q3, n2) = gap_and_mid(
+        s, spring_bodies, spring_arm_a, spring_arm_b, body_pos, body_rot, body_dq)
     f = spring_frame0[s]
-    w, x, y, z = quat_mul(m0, m1, m2, m3, f[0], f[1], f[2], f[3])
+    w, x, y, z = quat_mul(q0, q1, q2, q3, f[0], f[1], f[2], f[3])
     # homogeneous rotation matrix of the unnormalised quaternion p (|p|² = n2)
     G00 = n2 - 2.0 * (y * y + z * z)
     G01 = 2.0 * (x * y - w * z)
@@ -69,8 +86,7 @@ def gap_and_scaled_frame(s, spring_bodies, spring_arm_a, spring_arm_b, spring_fr
     G20 = 2.0 * (x * z - w * y)
     G21 = 2.0 * (y * z + w * x)
     G22 = n2 - 2.0 * (x * x + y * y)
-    return (pb0 - pa0, pb1 - pa1, pb2 - pa2,
-            0.5 * (pa0 + pb0), 0.5 * (pa1 + pb1), 0.5 * (pa2 + pb2),
+    return (d0, d1, d2, m0, m1, m2,
             G00, G01, G02, G10, G11, G12, G20, G21, G22, n2)
 
 
@@ -89,27 +105,131 @@ def gap_and_frame(s, spring_bodies, spring_arm_a, spring_arm_b, spring_frame0,
             c * G00, c * G01, c * G02, c * G10, c * G11, c * G12, c * G20, c * G21, c * G22)
 
 
+@nb.njit(inline="always", **JIT)
+def deposit_b(s, a, f0, f1, f2, m0, m1, m2, spring_bodies, body_pos, body_wrench,
+              body_support):
+    """Add the wrench of spring s on body b (force −f at the point m, moment
+    (m − x_b) × (−f)) to b's accumulator; for a support (b is the ground)
+    add f to body_support[a] instead.  Body a's share is summed by the
+    caller while the springs of a run (they are sorted by a, partition.py)."""
+    b = np.uint64(spring_bodies[s, 1])
+    if b == body_support.shape[0] - 1:
+        body_support[a, 0] += f0
+        body_support[a, 1] += f1
+        body_support[a, 2] += f2
+        return
+    r0 = m0 - body_pos[b, 0]
+    r1 = m1 - body_pos[b, 1]
+    r2 = m2 - body_pos[b, 2]
+    body_wrench[b, 0] -= f0
+    body_wrench[b, 1] -= f1
+    body_wrench[b, 2] -= f2
+    body_wrench[b, 3] -= r1 * f2 - r2 * f1
+    body_wrench[b, 4] -= r2 * f0 - r0 * f2
+    body_wrench[b, 5] -= r0 * f1 - r1 * f0
+
+
+@nb.njit(inline="always", **JIT)
+def flush_a(a, w0, w1, w2, w3, w4, w5, body_wrench):
+    """Add a run's summed wrench on body a to its accumulator."""
+    body_wrench[a, 0] += w0
+    body_wrench[a, 1] += w1
+    body_wrench[a, 2] += w2
+    body_wrench[a, 3] += w3
+    body_wrench[a, 4] += w4
+    body_wrench[a, 5] += w5
+
+
 @nb.njit(parallel=True, **JIT)
-def elastic_spring_pass(spring_bodies, spring_arm_a, spring_arm_b, spring_frame0, spring_k,
-                        body_pos, body_rot, body_dq, spring_force, spring_mid):
+def clear_wrenches(body_wrench, body_support):
+    for i in nb.prange(body_wrench.shape[0]):
+        for k in range(6):
+            body_wrench[i, k] = 0.0
+        for k in range(3):
+            body_support[i, k] = 0.0
+
+
+@nb.njit(parallel=True, **JIT)
+def _elastic_phase(lo, hi, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
+                   spring_frame0, spring_n0, spring_k, body_pos, body_rot, body_dq, body_wrench,
+                   body_support, store, spring_force):
+    for g in nb.prange(lo, hi):
+        s0 = group_ptr[g]
+        s1 = group_ptr[g + 1]
+        if s1 == s0:
+            continue
+        cur = np.uint64(spring_bodies[s0, 0])
+        w0 = w1 = w2 = w3 = w4 = w5 = 0.0
+        for s in range(np.uint64(s0), np.uint64(s1)):
+            (d0, d1, d2, m0, m1, m2, q0, q1, q2, q3, n2) = gap_and_mid(
+                s, spring_bodies, spring_arm_a, spring_arm_b, body_pos, body_rot, body_dq)
+            # f = F diag(k) Fᵀ d = k_s d + (k_n − k_s) n (n·d) + (k_t − k_s) t (t·d):
+            # the shear pair only needs the normal n = R(q) n0 when k_t = k_s.
+            # n2·n by the homogeneous rotation formula of the unnormalised q:
+            # (q0² − |v|²) n0 + 2 (v·n0) v + 2 q0 (v × n0)   (v = (q1, q2, q3))
+            e0, e1, e2 = spring_n0[s, 0], spring_n0[s, 1], spring_n0[s, 2]
+            cq = q0 * q0 - (q1 * q1 + q2 * q2 + q3 * q3)
+            vn = 2.0 * (q1 * e0 + q2 * e1 + q3 * e2)
+            h0 = 2.0 * q0
+            N0 = cq * e0 + vn * q1 + h0 * (q2 * e2 - q3 * e1)
+            N1 = cq * e1 + vn * q2 + h0 * (q3 * e0 - q1 * e2)
+            N2 = cq * e2 + vn * q3 + h0 * (q1 * e1 - q2 * e0)
+            kn = spring_k[s, 0]
+            ks = spring_k[s, 1]
+            kt = spring_k[s, 2]
+            inv = 1.0 / (n2 * n2)
+            cn = (kn - ks) * inv * (N0 * d0 + N1 * d1 + N2 * d2)
+            f0 = ks * d0 + cn * N0
+            f1 = ks * d1 + cn * N1
+            f2 = ks * d2 + cn * N2
+            if kt != ks:
+                # a support held in some directions only: t = R(q ⊗ q0) e3
+                fr = spring_frame0[s]
+                w, x, y, z = quat_mul(q0, q1, q2, q3, fr[0], fr[1], fr[2], fr[3])
+                T0 = 2.0 * (x * z + w * y)
+                T1 = 2.0 * (y * z - w * x)
+                T2 = n2 - 2.0 * (x * x + y * y)
+                ct = (kt - ks) * inv * (T0 * d0 + T1 * d1 + T2 * d2)
+                f0 += ct * T0
+                f1 += ct * T1
+                f2 += ct * T2
+            a = np.uint64(spring_bodies[s, 0])
+            if a != cur:
+                flush_a(cur, w0, w1, w2, w3, w4, w5, body_wrench)
+                cur = a
+                w0 = w1 = w2 = w3 = w4 = w5 = 0.0
+            # force f at m on body a: moment (m − x_a) × f
+            r0 = m0 - body_pos[a, 0]
+            r1 = m1 - body_pos[a, 1]
+            r2 = m2 - body_pos[a, 2]
+            w0 += f0
+            w1 += f1
+            w2 += f2
+            w3 += r1 * f2 - r2 * f1
+            w4 += r2 * f0 - r0 * f2
+            w5 += r0 * f1 - r1 * f0
+            deposit_b(s, a, f0, f1, f2, m0, m1, m2, spring_bodies, body_pos, body_wrench,
+                      body_support)
+            if store:
+                spring_force[s, 0] = f0
+                spring_force[s, 1] = f1
+                spring_force[s, 2] = f2
+        flush_a(cur, w0, w1, w2, w3, w4, w5, body_wrench)
+
+
+@nb.njit(**JIT)
+def elastic_spring_pass(phase_ptr, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
+                        spring_frame0, spring_n0, spring_k, body_pos, body_rot, body_dq,
+                        body_wrench, body_support, store, spring_force):
     """Linear-elastic springs: force on body a, f = F diag(k) Fᵀ d [N]
-    (with F = G/n2: f = G diag(k/n2²) Gᵀ d)."""
-    for s in nb.prange(spring_bodies.shape[0]):
-        (d0, d1, d2, m0, m1, m2,
-         G00, G01, G02, G10, G11, G12, G20, G21, G22, n2) = gap_and_scaled_frame(
-            s, spring_bodies, spring_arm_a, spring_arm_b, spring_frame0,
-            body_pos, body_rot, body_dq)
-        # local gap δ = Fᵀ d = Gᵀ d / n2, traction × area = k δ
-        c = 1.0 / (n2 * n2)
-        fn = (c * spring_k[s, 0]) * (G00 * d0 + G10 * d1 + G20 * d2)
-        fs = (c * spring_k[s, 1]) * (G01 * d0 + G11 * d1 + G21 * d2)
-        ft = (c * spring_k[s, 2]) * (G02 * d0 + G12 * d1 + G22 * d2)
-        spring_force[s, 0] = G00 * fn + G01 * fs + G02 * ft
-        spring_force[s, 1] = G10 * fn + G11 * fs + G12 * ft
-        spring_force[s, 2] = G20 * fn + G21 * fs + G22 * ft
-        spring_mid[s, 0] = m0
-        spring_mid[s, 1] = m1
-        spring_mid[s, 2] = m2
+    (Kawai 1978, eq. 13 form) with the spring frame F turned by the mid
+    rotation, summed into the bodies' wrenches; `store`: also write each
+    spring's force (output steps)."""
+    clear_wrenches(body_wrench, body_support)
+    for ph in range(phase_ptr.shape[0] - 1):
+        _elastic_phase(phase_ptr[ph], phase_ptr[ph + 1], group_ptr, spring_bodies,
+                       spring_arm_a, spring_arm_b, spring_frame0, spring_n0, spring_k, body_pos,
+                       body_rot, body_dq, body_wrench, body_support, store, spring_force)
 
 
 @nb.njit(parallel=True, **JIT)

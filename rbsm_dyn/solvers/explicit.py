@@ -19,7 +19,7 @@ import numpy as np
 
 from ..model import apply_initial, new_state
 from ..physics.integrate import run_dynamic, synchronized_momenta
-from ..physics.inelastic import inelastic_spring_pass, run_dynamic_inelastic
+from ..physics.inelastic import inelastic_spring_pass
 from ..physics.springs import elastic_spring_pass
 
 
@@ -28,22 +28,26 @@ class RunFailed(RuntimeError):
 
 
 def spring_pass(model, state):
-    """Spring forces and midpoints at the current positions, for output and
+    """Spring wrenches on the bodies and the force on body a of every spring
+    (state.spring_force) at the current positions, for output and
     synchronisation: an inelastic pass works on copies of the spring history,
     so repeating it at an output step changes nothing."""
     m = model
     if m.inelastic:
-        inelastic_spring_pass(m.spring_bodies, m.spring_arm_a, m.spring_arm_b, m.spring_frame0,
-                              m.spring_k, m.spring_area, m.spring_h, m.spring_law, m.law_params,
-                              state.body_pos, state.body_rot, state.body_dq,
-                              state.spring_force, state.spring_mid,
-                              state.spring_state.copy(), state.spring_dp.copy(),
-                              state.spring_kappa.copy(), state.spring_dmg.copy(),
-                              state.spring_wp.copy(), state.spring_wf.copy())
-        return
-    elastic_spring_pass(m.spring_bodies, m.spring_arm_a, m.spring_arm_b, m.spring_frame0,
-                        m.spring_k, state.body_pos, state.body_rot, state.body_dq,
-                        state.spring_force, state.spring_mid)
+        inelastic_spring_pass(m.phase_ptr, m.group_ptr, m.spring_bodies, m.spring_arm_a,
+                              m.spring_arm_b, m.spring_frame0, m.spring_k, m.spring_area,
+                              m.spring_h, m.spring_law, m.law_params, state.body_pos,
+                              state.body_rot, state.body_dq, state.body_wrench,
+                              state.body_support, state.spring_state.copy(),
+                              state.spring_dp.copy(), state.spring_kappa.copy(),
+                              state.spring_dmg.copy(), state.spring_wp.copy(),
+                              state.spring_wf.copy(), True, state.spring_force)
+    else:
+        elastic_spring_pass(m.phase_ptr, m.group_ptr, m.spring_bodies, m.spring_arm_a,
+                            m.spring_arm_b, m.spring_frame0, m.spring_n0, m.spring_k,
+                            state.body_pos,
+                            state.body_rot, state.body_dq, state.body_wrench,
+                            state.body_support, True, state.spring_force)
 
 
 def choose_dt(case, model):
@@ -62,24 +66,18 @@ def advance(model, state, n_steps, damping_alpha=0.0):
     spring kernel is chosen once here: elastic, or inelastic when the model
     has yield, rupture or cuts)."""
     m = model
-    bodies = (m.csr_ptr, m.csr_spring, m.csr_sign,
-              m.body_mass, m.body_inertia, state.body_pos, m.body_pos0, state.body_quat,
-              m.body_quat0, state.body_vel, state.body_angmom, state.body_rot, state.body_dq,
-              m.body_fext, m.body_mext, m.body_load_hist, m.gravity, damping_alpha,
-              m.dof_kind, m.dof_value, m.dof_hist, m.hist_ptr, m.hist_t, m.hist_a,
-              state.body_work, state.body_damp, state.body_reaction)
-    if m.inelastic:
-        state.step = run_dynamic_inelastic(
-            n_steps, state.step, state.dt, m.ground,
-            m.spring_bodies, m.spring_arm_a, m.spring_arm_b, m.spring_frame0, m.spring_k,
-            m.spring_area, m.spring_h, m.spring_law, m.law_params,
-            state.spring_state, state.spring_dp, state.spring_kappa, state.spring_dmg,
-            state.spring_wp, state.spring_wf, state.spring_force, state.spring_mid, *bodies)
-    else:
-        state.step = run_dynamic(
-            n_steps, state.step, state.dt, m.ground,
-            m.spring_bodies, m.spring_arm_a, m.spring_arm_b, m.spring_frame0, m.spring_k,
-            state.spring_force, state.spring_mid, *bodies)
+    state.step = run_dynamic(
+        n_steps, state.step, state.dt, m.inelastic,
+        m.spring_bodies, m.spring_arm_a, m.spring_arm_b, m.spring_frame0, m.spring_n0,
+        m.spring_k, m.spring_area, m.spring_h, m.spring_law, m.law_params,
+        state.spring_state, state.spring_dp, state.spring_kappa, state.spring_dmg,
+        state.spring_wp, state.spring_wf, m.phase_ptr, m.group_ptr,
+        state.body_wrench, state.body_support, state.spring_force,
+        m.body_mass, m.body_inertia, state.body_pos, m.body_pos0, state.body_quat,
+        m.body_quat0, state.body_vel, state.body_angmom, state.body_rot, state.body_dq,
+        m.body_fext, m.body_mext, m.body_load_hist, m.gravity, damping_alpha,
+        m.dof_kind, m.dof_value, m.dof_hist, m.hist_ptr, m.hist_t, m.hist_a,
+        state.body_work, state.body_damp)
 
 
 def synchronize(model, state):
@@ -89,10 +87,9 @@ def synchronize(model, state):
     n = m.n_bodies
     vel = np.empty((n, 3))
     ang = np.empty((n, 3))
-    synchronized_momenta(state.time, state.dt, m.ground, m.csr_ptr, m.csr_spring, m.csr_sign,
-                         m.spring_bodies, state.spring_force, state.spring_mid, m.body_mass,
-                         state.body_pos, state.body_vel, state.body_angmom, m.body_fext,
-                         m.body_mext, m.body_load_hist, m.gravity, m.dof_kind, m.dof_value,
+    synchronized_momenta(state.time, state.dt, state.body_wrench, state.body_support,
+                         m.body_mass, state.body_vel,
+                         state.body_angmom, m.body_fext, m.body_mext, m.body_load_hist, m.gravity, m.dof_kind, m.dof_value,
                          m.dof_hist, m.hist_ptr, m.hist_t, m.hist_a, vel, ang,
                          state.body_reaction)
     return vel, ang

@@ -71,12 +71,12 @@ def run(case, model, recorder, *, max_steps=None, progress=None, check_every=200
             if max_steps is not None:
                 k = min(k, max(0, int(max_steps) - total))
             ek, c = run_relax(
-                k, lam, kind, beta, c, it == 0, m.ground, m.spring_bodies, m.spring_arm_a,
-                m.spring_arm_b, m.spring_frame0, m.spring_k,
+                k, lam, kind, beta, c, it == 0, m.spring_bodies, m.spring_arm_a,
+                m.spring_arm_b, m.spring_frame0, m.spring_n0, m.spring_k,
                 m.inelastic, m.spring_area, m.spring_h, m.spring_law, m.law_params,
                 state.spring_state, state.spring_dp, state.spring_kappa,
-                state.spring_dmg, state.spring_wp, state.spring_wf, state.spring_force,
-                state.spring_mid, m.csr_ptr, m.csr_spring, m.csr_sign,
+                state.spring_dmg, state.spring_wp, state.spring_wf, m.phase_ptr,
+                m.group_ptr, state.body_wrench, state.body_support, state.spring_force,
                 m.body_mass, fm, fi, state.body_pos, m.body_pos0, state.body_quat,
                 m.body_quat0, state.body_vel, state.body_angmom, state.body_rot,
                 state.body_dq, m.body_fext, m.body_mext, m.gravity, m.dof_kind,
