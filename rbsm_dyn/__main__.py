@@ -1,4 +1,5 @@
-"""Command line: python -m rbsm_dyn [run|check|info] CASE.yaml [options].
+"""Command line: python -m rbsm_dyn [run|check|info] CASE.yaml [options];
+python -m rbsm_dyn bench [--bodies N --steps K --threads T --physics P] (bench.py).
 
 Exit status: 0 success, 2 bad case (one message naming file, line and key),
 1 failed run (divergence or no convergence, with step and time; the
@@ -51,6 +52,10 @@ class Progress:
 
 
 def main(argv=None):
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if argv[:1] == ["bench"]:
+        from .bench import main as bench_main
+        return bench_main(argv[1:])
     args = _parser().parse_args(argv)
     if args.command_or_case in ("run", "check", "info"):
         command, path = args.command_or_case, args.case

@@ -1,0 +1,116 @@
+"""`python -m rbsm_dyn bench`: time the explicit loop on a Voronoi block.
+
+Builds a steel block 1 × 0.5 × 0.5 m cut into about `--bodies` Voronoi
+cells (clamped on xmin, bending and turning from an initial velocity field),
+then times `advance(model, state, K)` alone: mesh + model build and the
+first call (Numba compile or cache load) are timed and reported apart.
+Physics:
+  elastic  linear springs (the elastic kernel);
+  plastic  von Mises yield at a stress the motion reaches (inelastic kernel);
+  full     yield, softening rupture and Coulomb contact on broken faces.
+Ends with one line (the contract of issue 5):
+  bench: bodies=B springs=S steps=K threads=T physics=P ns_per_spring_step=X ns_per_body_step=Y
+"""
+import argparse
+import sys
+import time
+
+CASE = """\
+name: bench
+units: SI
+domain: {{box: [[0, 0, 0], [1.0, 0.5, 0.5]]}}
+mesh: {{kind: voronoi, size: {size:.6g}, seed: 1}}
+materials:
+  steel: {{density: 7850, young: 2.0e11, poisson: 0.2{law}}}
+boundary: [{{face: xmin, fix: all}}]
+initial: [{{velocity: [0.0, 0.0, {v}], angular_velocity: [0.0, 0.0, 2.0]}}]
+solver: {{mode: dynamic, end_time: 1.0e-3}}
+"""
+# laws chosen so that springs yield / break within the first steps
+LAWS = {
+    "elastic": ("", -1.0),
+    "plastic": (", yield: {criterion: von_mises, stress: 2.0e6}", -20.0),
+    "full": (", yield: {criterion: von_mises, stress: 2.0e6}, "
+             "rupture: {fracture_energy: 0.5, tensile_strength: 5.0e5}, friction: 0.5", -20.0),
+}
+
+
+def case_text(bodies, physics):
+    size = (1.0 * 0.5 * 0.5 / max(bodies, 8)) ** (1.0 / 3.0)
+    law, v = LAWS[physics]
+    return CASE.format(size=size, law=law, v=v)
+
+
+def run(bodies, steps, threads, physics, repeat=3, out=print):
+    """Build, warm up, time; returns a dict of the figures."""
+    import numba
+
+    from .case import load_case_text
+    from .model import apply_initial, build_model, new_state
+    from .solvers.explicit import advance, choose_dt, start_half_step
+
+    t0 = time.perf_counter()
+    case = load_case_text(case_text(bodies, physics), "bench.yaml")
+    model = build_model(case)
+    t_build = time.perf_counter() - t0
+    S, N = model.n_springs, model.n_bodies
+    out(f"model: {N} bodies, {S} spring points, physics {physics} "
+        f"({'inelastic' if model.inelastic else 'elastic'} kernel); build {t_build:.1f} s")
+
+    def fresh():
+        st = new_state(model)
+        st.dt, _ = choose_dt(case, model)
+        apply_initial(case, model, st)
+        start_half_step(model, st)
+        return st
+
+    numba.set_num_threads(threads)
+    t0 = time.perf_counter()
+    advance(model, fresh(), 1)
+    t_first = time.perf_counter() - t0
+    out(f"first call (compile or cache load): {t_first:.2f} s; threads {threads} "
+        f"({numba.threading_layer()})")
+    best = float("inf")
+    cpu = float("inf")
+    for _ in range(repeat):
+        st = fresh()
+        c0 = time.process_time()
+        w0 = time.perf_counter()
+        advance(model, st, steps)
+        best = min(best, time.perf_counter() - w0)
+        cpu = min(cpu, time.process_time() - c0)
+    ns_s = best / (S * steps) * 1e9
+    ns_b = best / (N * steps) * 1e9
+    out(f"loop: best of {repeat}: {best:.3f} s wall, {cpu:.3f} s CPU (all threads) "
+        f"= {cpu / (S * steps) * 1e9:.1f} CPU ns/spring-step")
+    broken = int((st.spring_state >= 2).sum()) if model.inelastic else 0
+    yielded = int((st.spring_state == 1).sum()) if model.inelastic else 0
+    if model.inelastic:
+        out(f"springs at the end: {yielded} yielded, {broken} broken")
+    out(f"bench: bodies={N} springs={S} steps={steps} threads={threads} physics={physics} "
+        f"ns_per_spring_step={ns_s:.1f} ns_per_body_step={ns_b:.0f}")
+    return dict(bodies=N, springs=S, steps=steps, threads=threads, physics=physics,
+                wall=best, cpu=cpu, ns_spring=ns_s, ns_body=ns_b, build=t_build,
+                first=t_first, yielded=yielded, broken=broken)
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(prog="python -m rbsm_dyn bench", description=__doc__.splitlines()[0])
+    p.add_argument("--bodies", type=float, default=3.0e4,
+                   help="Voronoi cells (default 3e4: about 1.1 M spring points)")
+    p.add_argument("--steps", type=int, default=100, help="timed steps (default 100)")
+    p.add_argument("--threads", type=int, default=1, help="Numba threads (default 1)")
+    p.add_argument("--physics", choices=sorted(LAWS), default="elastic")
+    p.add_argument("--repeat", type=int, default=3, help="timed runs, best kept (default 3)")
+    a = p.parse_args(argv)
+    if a.bodies < 8 or a.steps < 1 or a.threads < 1 or a.repeat < 1:
+        p.error("--bodies ≥ 8, --steps, --threads and --repeat ≥ 1")
+    import numba
+    if a.threads > numba.config.NUMBA_NUM_THREADS:
+        p.error(f"--threads {a.threads} > NUMBA_NUM_THREADS = {numba.config.NUMBA_NUM_THREADS}")
+    run(int(a.bodies), a.steps, a.threads, a.physics, a.repeat)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
