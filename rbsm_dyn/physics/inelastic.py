@@ -25,6 +25,8 @@ inf marks it), so fragments that fly and tumble do not push through a face
 they no longer share.  Sliding by more than h along a crack is beyond this
 pairwise contact (it would need contact detection between new partners).
 """
+import math
+
 import numba as nb
 import numpy as np
 
@@ -33,9 +35,13 @@ from .laws import (BROKEN, CONTACT, P_COH, P_CRIT, P_EPSCR, P_FT, P_GF, P_MU,
 from .laws.contact import CONTACT_OFF, contact_traction
 from .laws.plastic import plastic_return
 from .laws.rupture import SOFTENING, STRAIN, equivalent_strain, softening_damage
-from .springs import clear_wrenches, deposit_b, flush_a, gap_and_frame
+from .springs import clear_wrenches, deposit_b, flush_a, gap_and_scaled_frame
 
 JIT = dict(cache=True, nogil=True, fastmath=False, error_model="numpy")
+
+# n2 = |Δq_a ± Δq_b|² = 2 + 2 cos(θ/2) for a relative rotation θ of the pair;
+# below this a broken pair has turned by more than 90° and is parted
+N2_PARTED = 2.0 + 2.0 * math.cos(math.pi / 4.0)
 
 
 @nb.njit(inline="always", **JIT)
@@ -58,9 +64,13 @@ def _inelastic_phase(lo, hi, group_ptr, spring_bodies, spring_arm_a, spring_arm_
         w0 = w1 = w2 = w3 = w4 = w5 = 0.0
         for s in range(s0, s1):
             (d0, d1, d2, m0, m1, m2,
-             F00, F01, F02, F10, F11, F12, F20, F21, F22) = gap_and_frame(
+             G00, G01, G02, G10, G11, G12, G20, G21, G22, n2) = gap_and_scaled_frame(
                 s, spring_bodies, spring_arm_a, spring_arm_b, spring_frame0,
                 body_pos, body_rot, body_dq)
+            c = 1.0 / n2
+            F00, F01, F02 = c * G00, c * G01, c * G02
+            F10, F11, F12 = c * G10, c * G11, c * G12
+            F20, F21, F22 = c * G20, c * G21, c * G22
             dn = F00 * d0 + F10 * d1 + F20 * d2
             ds = F01 * d0 + F11 * d1 + F21 * d2
             dt = F02 * d0 + F12 * d1 + F22 * d2
@@ -127,15 +137,19 @@ def _inelastic_phase(lo, hi, group_ptr, spring_bodies, spring_arm_a, spring_arm_
                     spring_dp[s, 2] = dt
                 spring_state[s] = state
             if state >= BROKEN:
-                if dn * dn + ds * ds + dt * dt > spring_h[s] * spring_h[s]:
+                if (dn * dn + ds * ds + dt * dt > spring_h[s] * spring_h[s]
+                        or n2 < N2_PARTED):
                     # moved apart by a whole spring length (opened, slid or turned
-                    # away): the two cells have parted and no longer meet at this
-                    # face (RBSM contact is between the original neighbours only)
+                    # away), or turned by more than a right angle against each
+                    # other (the mid frame is no longer the face's): the two cells
+                    # have parted and no longer meet at this face (RBSM contact is
+                    # between the original neighbours only)
                     spring_kappa[s] = np.inf
                 ss0 = spring_dp[s, 1]
                 st0 = spring_dp[s, 2]
                 mu = P[P_MU] if spring_kappa[s] != np.inf else CONTACT_OFF
-                fn, fs, ft, ss1, st1, closed = contact_traction(mu, kn, ks, dn, ds, dt, ss0, st0)
+                fn, fs, ft, ss1, st1, closed = contact_traction(mu, kn, ks, kt, dn, ds, dt,
+                                                                    ss0, st0)
                 if closed:
                     # friction work on the slip increment
                     spring_wp[s] += fs * (ss1 - ss0) + ft * (st1 - st0)

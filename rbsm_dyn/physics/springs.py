@@ -91,21 +91,6 @@ def gap_and_scaled_frame(s, spring_bodies, spring_arm_a, spring_arm_b, spring_fr
 
 
 @nb.njit(inline="always", **JIT)
-def gap_and_frame(s, spring_bodies, spring_arm_a, spring_arm_b, spring_frame0,
-                  body_pos, body_rot, body_dq):
-    """World gap d, midpoint m and spring frame F (columns n, s, t) of spring s.
-
-    Returns (d0, d1, d2, m0, m1, m2, F as 9 scalars row-major)."""
-    (d0, d1, d2, m0, m1, m2,
-     G00, G01, G02, G10, G11, G12, G20, G21, G22, n2) = gap_and_scaled_frame(
-        s, spring_bodies, spring_arm_a, spring_arm_b, spring_frame0,
-        body_pos, body_rot, body_dq)
-    c = 1.0 / n2
-    return (d0, d1, d2, m0, m1, m2,
-            c * G00, c * G01, c * G02, c * G10, c * G11, c * G12, c * G20, c * G21, c * G22)
-
-
-@nb.njit(inline="always", **JIT)
 def deposit_b(s, a, f0, f1, f2, m0, m1, m2, spring_bodies, body_pos, body_wrench,
               body_support):
     """Add the wrench of spring s on body b (force −f at the point m, moment

@@ -18,15 +18,17 @@ CONTACT_OFF = -1.0   # μ < 0 in law_params: broken faces carry nothing
 
 
 @nb.njit(inline="always", **JIT)
-def contact_traction(mu, kn, ks, dn, ds, dt, slip_s, slip_t):
+def contact_traction(mu, kn, ks, kt, dn, ds, dt, slip_s, slip_t):
     """Traction (σn, τs, τt) [Pa] of a broken face with gap (δn, δs, δt) and
-    slip (slip_s, slip_t) [m]; returns the traction, the new slip and
-    whether the face is closed (1) or open (0)."""
+    slip (slip_s, slip_t) [m], with the intact spring's stiffnesses (a
+    support held in some directions only has k = 0 in the free ones);
+    returns the traction, the new slip and whether the face is closed (1)
+    or open (0)."""
     if mu < 0.0 or dn >= 0.0:
         return 0.0, 0.0, 0.0, ds, dt, 0
     sn = kn * dn
     ts = ks * (ds - slip_s)
-    tt = ks * (dt - slip_t)
+    tt = kt * (dt - slip_t)
     tmax = -mu * sn
     t = math.sqrt(ts * ts + tt * tt)
     if t > tmax:
@@ -34,7 +36,8 @@ def contact_traction(mu, kn, ks, dn, ds, dt, slip_s, slip_t):
         # slip takes the excess of the trial traction
         if ks > 0.0:
             slip_s += (ts - ts * r) / ks
-            slip_t += (tt - tt * r) / ks
+        if kt > 0.0:
+            slip_t += (tt - tt * r) / kt
         ts *= r
         tt *= r
     return sn, ts, tt, slip_s, slip_t, 1
