@@ -346,9 +346,38 @@ def part_drift(args):
         "with U > 1e-3 max U), an oscillation of a few % that is no drift either: the "
         "window means and Ẽ move by orders of magnitude less. The history's energy "
         "columns are E, so a user comparing frames sees that oscillation.",
-        "* Ẽ moves by ~1e-7 (not round-off): the finite-rotation kinematics is nonlinear "
-        "at relative order strain ≈ 1e-7 here."]
+        f"* Ẽ moves by at most {max(r['mod_max'] for r in rows):.2e} over "
+        f"{r0['steps']} steps. The amplitude scan below (random field, 10^5 steps each) "
+        "shows it is not a systematic drift: at 1e-4-1e-3 m/s (displacements ~1e-9 m on "
+        "positions ~0.2 m) it creeps linearly with a sign that changes with the "
+        "amplitude (round-off), at 0.1-1 m/s (strain up to 2e-4) it wanders without a "
+        "trend (Ẽ is exact only for the linear system)."]
+    k = args.scan_steps // 10
+    lines += ["", f"| speed scale [m/s] | Ẽ/Ẽ0 − 1 after 2, 4, 6, 8, 10 × {k} steps |",
+              "|---|---|"]
+    for amp, series in amplitude_scan(args.scan_steps):
+        lines.append(f"| {amp:g} | " + ", ".join(f"{x:+.2e}" for x in series[1::2]) + " |")
     return rows, "\n".join(lines)
+
+
+def amplitude_scan(n_steps, amps=(1e-4, 1e-3, 1e-1, 1.0)):
+    """Ẽ/Ẽ0 − 1 every n_steps/10 steps from a random field at each speed scale."""
+    case, m = build(beam_case(BEAM, "{kind: blocks, divisions: [8, 2, 2]}"))
+    dt, _ = choose_dt(case, m)
+    out = []
+    for amp in amps:
+        st = new_state(m)
+        st.dt = dt
+        excite(m, st, amp=amp, seed=1)
+        start_half_step(m, st)
+        et0 = energies(m, st)[1]
+        series = []
+        for _ in range(10):
+            advance(m, st, n_steps // 10)
+            series.append(energies(m, st)[1] / et0 - 1.0)
+        out.append((amp, series))
+        print(f"scan amp {amp}: {series[-1]:+.2e}", flush=True)
+    return out
 
 
 RUPTURE_MATERIAL = ("{density: 2500, young: 60.0e9, poisson: 0.2, "
@@ -437,21 +466,26 @@ def rupture_run(dt_safety, n_steps, samples):
     contact_max = 0
     t0 = time.perf_counter()
     while True:
-        e = energies(m, st)[0]
+        e, em, _ = energies(m, st)
         wp, wf = float(st.spring_wp.sum()), float(st.spring_wf.sum())
         n_contact = int(np.count_nonzero(st.spring_state == CONTACT))
         contact_max = max(contact_max, n_contact)
-        rec.append((e, e + wp + wf, int(np.count_nonzero(st.spring_state >= BROKEN)), n_contact))
+        rec.append((e, e + wp + wf, int(np.count_nonzero(st.spring_state >= BROKEN)), n_contact,
+                    em, st.step))
         if st.step >= n_steps or not np.isfinite(e):
             break
-        advance(m, st, min(every, n_steps - st.step))
+        # every 2 steps through the impact (the first 400), then `every`
+        advance(m, st, min(2 if st.step < 400 else every, n_steps - st.step))
     wall = time.perf_counter() - t0
     rec = np.array(rec)
     internal = ~m.is_support
     ever_contact = int(np.count_nonzero(rec[:, 3] > 0))
     return dict(dt_safety=dt_safety, dt=dt, est=est, bodies=m.n_bodies, springs=m.n_springs,
                 steps=st.step, finite=bool(np.all(np.isfinite(rec))),
-                mech_max=rec[:, 0].max() / e0, balance=np.abs(rec[:, 1] - e0).max() / e0,
+                mech_max=rec[:, 0].max() / e0, mod_max=rec[:, 4].max() / e0,
+                bal_impact=((rec[:, 1] - e0)[rec[:, 5] <= 400] / e0).min(),
+                bal_impact_max=((rec[:, 1] - e0)[rec[:, 5] <= 400] / e0).max(),
+                bal_max=(rec[:, 1] - e0).max() / e0, bal_end=(rec[-1, 1] - e0) / e0,
                 broken=int(rec[-1, 2]), broken_frac=rec[-1, 2] / m.n_springs,
                 contact_max=contact_max, contact_end=int(rec[-1, 3]),
                 internal=int(internal.sum()), frames_with_contact=ever_contact,
@@ -578,7 +612,7 @@ def part_contact(args):
         r = rupture_run(safety, args.rupture_steps, 200)
         rows.append(r)
         print(f"rupture dt_safety {safety}: broken {r['broken']}, contact max "
-              f"{r['contact_max']}, mech max {r['mech_max']:.4f}, balance {r['balance']:.3g}, "
+              f"{r['contact_max']}, E max {r['mech_max']:.4f}, balance max {r['bal_max']:+.3g}, "
               f"{r['wall']:.1f} s", flush=True)
     r = rows[0]
     lines += [
@@ -586,27 +620,36 @@ def part_contact(args):
         "points), E = 60 GPa, ν = 0.2, ρ = 2500, rupture at equivalent strain 1e-3, "
         "friction 0.5, support springs on zmin (breakable, same material), initial "
         f"velocity (20, 0, −300) m/s, {r['steps']} steps, energies at {r['samples']} "
-        "samples. E = kinetic + strain, W = friction + fracture dissipation; "
+        "samples (every 2 steps through the impact, the first 400 steps). "
+        "E = kinetic + strain, W = friction + fracture dissipation; "
         "E0 = initial kinetic energy, no external work (supports are springs).",
         "",
         "| dt_safety | dt [µs] | broken at end (fraction) | most springs in closed contact at "
-        "a sample | in contact at end | max E/E0 | max \\|E + W − E0\\|/E0 | "
+        "a sample | in contact at end | max E/E0 | max Ẽ/E0 | (E + W − E0)/E0 in the "
+        "impact (steps ≤ 400), min / max | max (E + W − E0)/E0, whole run | at end | "
         "dissipated W/E0 at end | finite | wall [s] |",
-        "|---|---|---|---|---|---|---|---|---|---|"]
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         lines.append(f"| {r['dt_safety']} | {r['dt'] * 1e6:.4f} | {r['broken']} "
                      f"({r['broken_frac']:.2f}) | {r['contact_max']} | {r['contact_end']} | "
-                     f"{r['mech_max']:.4f} | {r['balance']:.2e} | {r['dissipated']:.3f} | "
-                     f"{'yes' if r['finite'] else '**NO**'} | {r['wall']:.0f} |")
+                     f"{r['mech_max']:.4f} | {r['mod_max']:.4f} | {r['bal_impact']:+.4f} / "
+                     f"{r['bal_impact_max']:+.4f} | {r['bal_max']:+.4f} | {r['bal_end']:+.4f} | "
+                     f"{r['dissipated']:.3f} | {'yes' if r['finite'] else '**NO**'} | "
+                     f"{r['wall']:.0f} |")
+    lines += ["",
+              "E exceeds E0 by a fraction of a percent during the impact: the synchronized "
+              "energy's own oscillation (E − Ẽ = (dt²/8) fᵀM⁻¹f ≥ 0); the modified energy "
+              f"Ẽ stays within {max(r['mod_max'] for r in rows) - 1:.2%} of E0. Nothing "
+              "grows: the runs are stable at the estimated step and at 0.8 of it, through "
+              "thousands of springs in closed contact."]
     f = flip_diagnosis()
     print(f"flip: {f}", flush=True)
     if "step" in f:
         gb, ga = f["gap_before"] * 1e3, f["gap_after"] * 1e3
         lines += [
             "",
-            "Energy balance: kinetic + strain never exceeds E0 (stable at both steps), but "
-            "E + W − E0 is not zero. Two contact effects, neither a step-size one "
-            "(replay of the dt_safety 0.8 run step by step):",
+            "Energy balance: E + W − E0 is not zero. Two contact effects, neither a "
+            "step-size one (replay of the dt_safety 0.8 run step by step):",
             "",
             f"* **Energy created when two cells have turned half a turn relative to each "
             f"other.** Step {f['step']}: E + W jumps by {f['jump']:.4f} E0 in one step. "
@@ -715,10 +758,24 @@ def part_cli(args, limit):
             "",
             f"* plain CLI: exit {r['plain_code']}: `{r['plain_err']}`",
             f"* choose_dt bypassed: exit {r['code']}: `{r['err']}`",
-            f"* history: status `{r['status']}`, {r['frames']} frames (last at step "
+            f"* history: status `{r['status']}`, {r['frames']} frame(s) (last at step "
             f"{r['last_step']}), all written positions finite: {r['finite']}; first step "
             f"with E > {GROWTH:g} E0 (in-process replay): {r['first']}",
             ""]
+    r = rows[-1]
+    lines += [
+        "The message names the step and time and the history stays readable with status "
+        "failed, as DESIGN §4 asks. The guard (solvers/explicit.py) looks at the state only "
+        "at output steps and chunk ends, and only for non-finite values or a body faster "
+        "than 10 c0: just past the limit (×1.02) the energy passed 10 E0 at step "
+        f"{r['first']} but the run stopped at step {r['last_step'] + 20}, and the "
+        f"{r['frames'] - 1} frames in between hold a growing, finite, meaningless "
+        "oscillation. An energy test at output steps (E > k·(E0 + W_ext), as in this "
+        "sweep) would stop it within one output interval (suggestion, not made). "
+        "solver.dt above the estimate is refused with exit 2 (case.error on solver.dt), "
+        "and dt_safety ≤ 1 is enforced by the schema, so through the case file a run "
+        "cannot exceed the estimate; this part replaces explicit.choose_dt in a "
+        "subprocess (`BYPASS` in the script) to get past that refusal.", ""]
     return rows, "\n".join(lines)
 
 
@@ -752,12 +809,16 @@ def main(argv=None):
     p.add_argument("--trial-steps", type=int, default=2000, help="steps per bisection trial")
     p.add_argument("--drift-steps", type=float, default=1e6)
     p.add_argument("--drift-samples", type=int, default=1000)
+    p.add_argument("--scan-steps", type=int, default=100000,
+                   help="steps of each run of the amplitude scan (drift part)")
     p.add_argument("--rupture-steps", type=int, default=40000)
     p.add_argument("--quick", action="store_true", help="10^4-step drift runs")
     p.add_argument("--out", default=str(HERE / "results" / "stability.md"),
                    help="markdown report ('-': print only)")
     args = p.parse_args(argv)
     args.drift_steps = int(1e4 if args.quick else args.drift_steps)
+    if args.quick:
+        args.scan_steps = 10000
     parts = args.only.split(",")
     t_start = time.perf_counter()
     import numba
