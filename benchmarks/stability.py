@@ -160,7 +160,8 @@ def trial(m, dt, n_steps, chunk=100, seed=0):
         k = min(chunk, n_steps - done)
         advance(m, st, k)
         done += k
-        e = energies(m, st)[0]
+        with np.errstate(over="ignore", invalid="ignore"):     # a blown-up state
+            e = energies(m, st)[0]
         if not np.isfinite(e) or e > GROWTH * e0:
             return False, done
     return True, done
@@ -716,7 +717,8 @@ def first_unstable_step(dt, n_steps):
     e0 = energies(m, st)[0]
     for _ in range(n_steps):
         advance(m, st, 1)
-        e = energies(m, st)[0]
+        with np.errstate(over="ignore", invalid="ignore"):
+            e = energies(m, st)[0]
         if not np.isfinite(e) or e > GROWTH * e0:
             return st.step
     return None
