@@ -99,14 +99,11 @@ def kernel_body_forces(model, U):
     refresh_all_rotations(n + 1, quat, model.body_quat0, rot, dq)
     S = model.n_springs
     f = np.zeros((S, 3))
-    mid = np.zeros((S, 3))
-    elastic_spring_pass(model.spring_bodies, model.spring_arm_a, model.spring_arm_b,
-                        model.spring_frame0, model.spring_k, pos, rot, dq, f, mid)
     out = np.zeros((n + 1, 6))
-    for end, sign in ((0, 1.0), (1, -1.0)):
-        body = model.spring_bodies[:, end]
-        np.add.at(out[:, :3], body, sign * f)
-        np.add.at(out[:, 3:], body, np.cross(mid - pos[body], sign * f))
+    elastic_spring_pass(model.phase_ptr, model.group_ptr, model.spring_bodies,
+                        model.spring_arm_a, model.spring_arm_b, model.spring_frame0,
+                        model.spring_n0, model.spring_k, pos, rot, dq, out, np.zeros((n + 1, 3)),
+                        True, f)
     return out[:n], f
 
 
