@@ -15,6 +15,8 @@ import argparse
 import sys
 import time
 
+import numpy as np
+
 CASE = """\
 name: bench
 units: SI
@@ -42,7 +44,8 @@ def case_text(bodies, physics):
 
 
 def run(bodies, steps, threads, physics, repeat=3, out=print):
-    """Build, warm up, time; returns a dict of the figures."""
+    """Build, warm up, time for each thread count in `threads` (one model);
+    returns a list of dicts of the figures."""
     import numba
 
     from .case import load_case_text
@@ -64,12 +67,28 @@ def run(bodies, steps, threads, physics, repeat=3, out=print):
         start_half_step(model, st)
         return st
 
-    numba.set_num_threads(threads)
     t0 = time.perf_counter()
     advance(model, fresh(), 1)
     t_first = time.perf_counter() - t0
-    out(f"first call (compile or cache load): {t_first:.2f} s; threads {threads} "
-        f"({numba.threading_layer()})")
+    out(f"first call (compile or cache load): {t_first:.2f} s ({numba.threading_layer()} "
+        f"threading layer)")
+    rows = []
+    finals = []
+    for nt in threads:
+        numba.set_num_threads(nt)
+        row, st = _time_loop(model, fresh, advance, steps, nt, physics, repeat, out)
+        row.update(build=t_build, first=t_first)
+        rows.append(row)
+        finals.append(st)
+    for nt, st in zip(threads[1:], finals[1:]):
+        same = all(np.array_equal(getattr(finals[0], k), getattr(st, k))
+                   for k in ("body_pos", "body_quat", "body_vel", "body_angmom"))
+        out(f"final state {threads[0]} vs {nt} threads bitwise identical: {'yes' if same else 'NO'}")
+    return rows
+
+
+def _time_loop(model, fresh, advance, steps, threads, physics, repeat, out):
+    S, N = model.n_springs, model.n_bodies
     best = float("inf")
     cpu = float("inf")
     for _ in range(repeat):
@@ -90,8 +109,8 @@ def run(bodies, steps, threads, physics, repeat=3, out=print):
     out(f"bench: bodies={N} springs={S} steps={steps} threads={threads} physics={physics} "
         f"ns_per_spring_step={ns_s:.1f} ns_per_body_step={ns_b:.0f}")
     return dict(bodies=N, springs=S, steps=steps, threads=threads, physics=physics,
-                wall=best, cpu=cpu, ns_spring=ns_s, ns_body=ns_b, build=t_build,
-                first=t_first, yielded=yielded, broken=broken)
+                wall=best, cpu=cpu, ns_spring=ns_s, ns_body=ns_b, yielded=yielded,
+                broken=broken), st
 
 
 def main(argv=None):
@@ -99,16 +118,22 @@ def main(argv=None):
     p.add_argument("--bodies", type=float, default=3.0e4,
                    help="Voronoi cells (default 3e4: about 1.1 M spring points)")
     p.add_argument("--steps", type=int, default=100, help="timed steps (default 100)")
-    p.add_argument("--threads", type=int, default=1, help="Numba threads (default 1)")
+    p.add_argument("--threads", default="1",
+                   help="Numba threads, or a comma list timed on one model (default 1)")
     p.add_argument("--physics", choices=sorted(LAWS), default="elastic")
     p.add_argument("--repeat", type=int, default=3, help="timed runs, best kept (default 3)")
     a = p.parse_args(argv)
-    if a.bodies < 8 or a.steps < 1 or a.threads < 1 or a.repeat < 1:
+    try:
+        threads = [int(t) for t in a.threads.split(",")]
+    except ValueError:
+        p.error(f"--threads: integers separated by commas (got {a.threads!r})")
+    if a.bodies < 8 or a.steps < 1 or min(threads) < 1 or a.repeat < 1:
         p.error("--bodies ≥ 8, --steps, --threads and --repeat ≥ 1")
     import numba
-    if a.threads > numba.config.NUMBA_NUM_THREADS:
-        p.error(f"--threads {a.threads} > NUMBA_NUM_THREADS = {numba.config.NUMBA_NUM_THREADS}")
-    run(int(a.bodies), a.steps, a.threads, a.physics, a.repeat)
+    if max(threads) > numba.config.NUMBA_NUM_THREADS:
+        p.error(f"--threads {max(threads)} > NUMBA_NUM_THREADS = "
+                f"{numba.config.NUMBA_NUM_THREADS}")
+    run(int(a.bodies), a.steps, threads, a.physics, a.repeat)
     return 0
 
 
