@@ -43,6 +43,31 @@ def case_text(bodies, physics):
     return CASE.format(size=size, law=law, v=v)
 
 
+def headroom(threads):
+    """Speed-up of a trivial, perfectly parallel loop at `threads` threads
+    against 1: what the machine gives right now (a shared machine gives less
+    than its core count), to read the kernel's thread scaling against."""
+    import numba
+
+    @numba.njit(parallel=True, cache=False)
+    def work(n, out):
+        for g in numba.prange(out.shape[0]):
+            acc = 0.0
+            for i in range(n):
+                acc += np.sin(i * 1e-3 + g)
+            out[g] = acc
+
+    out = np.zeros(4 * threads)
+    times = {}
+    for nt in (1, threads):
+        numba.set_num_threads(nt)
+        work(10, out)
+        t0 = time.perf_counter()
+        work(2_000_000, out)
+        times[nt] = time.perf_counter() - t0
+    return times[1] / times[threads]
+
+
 def run(bodies, steps, threads, physics, repeat=3, out=print):
     """Build, warm up, time for each thread count in `threads` (one model);
     returns a list of dicts of the figures."""
@@ -80,6 +105,9 @@ def run(bodies, steps, threads, physics, repeat=3, out=print):
         row.update(build=t_build, first=t_first)
         rows.append(row)
         finals.append(st)
+    if max(threads) > 1:
+        out(f"machine headroom: a trivial parallel loop runs {headroom(max(threads)):.2f}x "
+            f"faster on {max(threads)} threads than on 1 right now")
     for nt, st in zip(threads[1:], finals[1:]):
         same = all(np.array_equal(getattr(finals[0], k), getattr(st, k))
                    for k in ("body_pos", "body_quat", "body_vel", "body_angmom"))
