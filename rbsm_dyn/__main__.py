@@ -1,4 +1,6 @@
-"""Command line: python -m rbsm_dyn [run|check|info] CASE.yaml [options].
+"""Command line: python -m rbsm_dyn [run|check|info] CASE.yaml [options],
+python -m rbsm_dyn export|render|plot RUN.h5 [options] (post-processing of a
+history: rbsm_dyn/io/export.py, rbsm_dyn/io/render.py).
 
 Exit status: 0 success, 2 bad case (one message naming file, line and key),
 1 failed run (divergence or no convergence, with step and time; the
@@ -16,7 +18,8 @@ INFO_OMEGA_MAX_BODIES = 5000   # `info` computes the exact ω_max up to this man
 def _parser():
     p = argparse.ArgumentParser(prog="python -m rbsm_dyn",
                                 description="Rigid-body-spring model (Kawai RBSM), explicit dynamics.")
-    p.add_argument("command_or_case", help="run | check | info, or the case file to run")
+    p.add_argument("command_or_case", help="run | check | info, or the case file to run "
+                   "(export | render | plot RUN.h5: see python -m rbsm_dyn export --help)")
     p.add_argument("case", nargs="?", help="case file (after a command)")
     p.add_argument("--out", help="output HDF5 file (overrides output.file)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -50,7 +53,27 @@ class Progress:
             self.bar.close()
 
 
+POST_COMMANDS = {"export": "export", "render": "render", "plot": "render"}
+
+
+def _post(command, argv):
+    """export | render | plot RUN.h5: each module has add_arguments(parser)
+    and main(args) (plot: add_plot_arguments, main_plot)."""
+    import importlib
+    mod = importlib.import_module(f".io.{POST_COMMANDS[command]}", __package__)
+    p = argparse.ArgumentParser(prog=f"python -m rbsm_dyn {command}",
+                                description=(mod.__doc__ or "").strip().splitlines()[0])
+    if command == "plot":
+        mod.add_plot_arguments(p)
+        return mod.main_plot(p.parse_args(argv))
+    mod.add_arguments(p)
+    return mod.main(p.parse_args(argv))
+
+
 def main(argv=None):
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if argv and argv[0] in POST_COMMANDS:
+        return _post(argv[0], argv[1:])
     args = _parser().parse_args(argv)
     if args.command_or_case in ("run", "check", "info"):
         command, path = args.command_or_case, args.case
