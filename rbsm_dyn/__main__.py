@@ -107,21 +107,44 @@ def main(argv=None):
         print(f"{path}: ok ({model.n_bodies} bodies, {model.n_springs} spring points)")
         return 0
     if command == "info":
-        dt = model.stable_dt()
-        print(f"case        {case.name}")
-        print(f"bodies      {model.n_bodies}")
-        print(f"springs     {model.n_springs} ({int(model.is_support.sum())} supports, {model.n_cut} cut)")
-        print(f"stable dt   {dt:.4g} s (estimate; used × dt_safety {case.solver.dt_safety})")
-        if model.n_bodies <= INFO_OMEGA_MAX_BODIES:       # Lanczos: < 1 s at this size
-            from .solvers.modal import omega_max
-            w = omega_max(model)
-            if w > 0:
-                print(f"exact dt    {2.0 / w:.4g} s (2/ω_max, ω_max = {w:.4g} rad/s by Lanczos; "
-                      f"estimate/exact = {dt * w / 2.0:.3f})")
-        if case.solver.mode == "dynamic":
-            print(f"steps       {int(case.solver.end_time / (dt * case.solver.dt_safety)) + 1}")
-        return 0
+        return _info(case, model, threads or numba.get_num_threads())
     return _run(case, model, args, threads or numba.get_num_threads())
+
+
+def _info(case, model, threads):
+    """Counts, steps, memory and output size of the case, without running
+    (rbsm_dyn/io/estimate.py says how each figure is made)."""
+    from .io.estimate import estimate, format_bytes
+    e = estimate(case, model, extra_observables=EXTRA_OBSERVABLES.get(case.solver.mode, {}),
+                 threads=threads)
+    dt = e.dt_estimate
+    print(f"case        {case.name} ({case.solver.mode})")
+    print(f"bodies      {e.n_bodies}")
+    print(f"springs     {e.n_springs} ({e.n_supports} supports, {model.n_cut} cut)")
+    print(f"stable dt   {dt:.4g} s (estimate; used × dt_safety {case.solver.dt_safety})")
+    if model.n_bodies <= INFO_OMEGA_MAX_BODIES:       # Lanczos: < 1 s at this size
+        from .solvers.modal import omega_max
+        w = omega_max(model)
+        if w > 0:
+            print(f"exact dt    {2.0 / w:.4g} s (2/ω_max, ω_max = {w:.4g} rad/s by Lanczos; "
+                  f"estimate/exact = {dt * w / 2.0:.3f})")
+    if e.steps is not None:
+        print(f"steps       {e.steps} (dt = {e.dt:.4g} s to end_time {case.solver.end_time:g} s)")
+        print(f"frames      {e.frames} (every {e.out_every} steps)")
+    else:
+        print(f"frames      {e.frames}")
+    print(f"memory      {format_bytes(e.memory_bytes)} (model {format_bytes(e.model_bytes)}, "
+          f"state {format_bytes(e.state_bytes)}, output buffers {format_bytes(e.buffer_bytes)}"
+          + (f", stiffness matrix {format_bytes(e.matrix_bytes)}" if e.matrix_bytes else "")
+          + ")")
+    print(f"output      {format_bytes(e.output_bytes)} -> {case.output.file} "
+          f"({format_bytes(e.static_bytes)} static + {e.frames} frames of "
+          f"{format_bytes(e.frame_bytes)}; fields: {', '.join(case.output.fields) or 'none'})")
+    return 0
+
+
+EXTRA_OBSERVABLES = {"static": {"residual": "1"}, "linear": {"residual": "1"},
+                     "modal": {"frequency": "Hz"}}
 
 
 def _run(case, model, args, threads):
@@ -129,8 +152,7 @@ def _run(case, model, args, threads):
     from .solvers import explicit, linear, modal, relax
     from .solvers.output import Recorder
     out = args.out or case.output.file
-    extra = {"static": {"residual": "1"}, "linear": {"residual": "1"},
-             "modal": {"frequency": "Hz"}}.get(case.solver.mode, {})
+    extra = EXTRA_OBSERVABLES.get(case.solver.mode, {})
     rec = Recorder(case, model, out, threads=threads, extra_observables=extra)
     progress = Progress(not args.quiet and sys.stderr.isatty() or (not args.quiet and os.environ.get("RBSM_PROGRESS")))
     t0 = time.perf_counter()
