@@ -3,11 +3,14 @@ __version__ = "0.1.0"
 __all__ = ["open_history", "load_case", "__version__"]
 
 
-def open_history(path):
+def open_history(path, *, frames=None, xarray=False):
     """Read an rbsm_dyn history (HDF5, H5MD) into NumPy arrays
-    (see rbsm_dyn.io.history.History)."""
+    (see rbsm_dyn.io.history.History), also while the run is still writing
+    it.  ``frames``: which frames to read (int, slice or list; all by
+    default); ``xarray=True``: return an xarray Dataset (dims frame, body,
+    spring; needs the optional extra ``rbsm_dyn[xarray]``)."""
     from .io.history import open_history as _open
-    return _open(path)
+    return _open(path, frames=frames, xarray=xarray)
 
 
 def load_case(path):

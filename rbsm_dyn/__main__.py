@@ -1,4 +1,6 @@
-"""Command line: python -m rbsm_dyn [run|check|info] CASE.yaml [options];
+"""Command line: python -m rbsm_dyn [run|check|info] CASE.yaml [options],
+python -m rbsm_dyn export|render|plot RUN.h5 [options] (post-processing of a
+history: rbsm_dyn/io/export.py, rbsm_dyn/io/render.py), and
 python -m rbsm_dyn bench [--bodies N --steps K --threads T --physics P] (bench.py).
 
 Exit status: 0 success, 2 bad case (one message naming file, line and key),
@@ -17,7 +19,8 @@ INFO_OMEGA_MAX_BODIES = 5000   # `info` computes the exact ω_max up to this man
 def _parser():
     p = argparse.ArgumentParser(prog="python -m rbsm_dyn",
                                 description="Rigid-body-spring model (Kawai RBSM), explicit dynamics.")
-    p.add_argument("command_or_case", help="run | check | info, or the case file to run")
+    p.add_argument("command_or_case", help="run | check | info, or the case file to run "
+                   "(export | render | plot RUN.h5: see python -m rbsm_dyn export --help)")
     p.add_argument("case", nargs="?", help="case file (after a command)")
     p.add_argument("--out", help="output HDF5 file (overrides output.file)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -51,11 +54,30 @@ class Progress:
             self.bar.close()
 
 
+POST_COMMANDS = {"export": "export", "render": "render", "plot": "render"}
+
+
+def _post(command, argv):
+    """export | render | plot RUN.h5: each module has add_arguments(parser)
+    and main(args) (plot: add_plot_arguments, main_plot)."""
+    import importlib
+    mod = importlib.import_module(f".io.{POST_COMMANDS[command]}", __package__)
+    p = argparse.ArgumentParser(prog=f"python -m rbsm_dyn {command}",
+                                description=(mod.__doc__ or "").strip().splitlines()[0])
+    if command == "plot":
+        mod.add_plot_arguments(p)
+        return mod.main_plot(p.parse_args(argv))
+    mod.add_arguments(p)
+    return mod.main(p.parse_args(argv))
+
+
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else list(argv)
     if argv[:1] == ["bench"]:
         from .bench import main as bench_main
         return bench_main(argv[1:])
+    if argv and argv[0] in POST_COMMANDS:
+        return _post(argv[0], argv[1:])
     args = _parser().parse_args(argv)
     if args.command_or_case in ("run", "check", "info"):
         command, path = args.command_or_case, args.case
@@ -89,21 +111,44 @@ def main(argv=None):
         print(f"{path}: ok ({model.n_bodies} bodies, {model.n_springs} spring points)")
         return 0
     if command == "info":
-        dt = model.stable_dt()
-        print(f"case        {case.name}")
-        print(f"bodies      {model.n_bodies}")
-        print(f"springs     {model.n_springs} ({int(model.is_support.sum())} supports, {model.n_cut} cut)")
-        print(f"stable dt   {dt:.4g} s (estimate; used × dt_safety {case.solver.dt_safety})")
-        if model.n_bodies <= INFO_OMEGA_MAX_BODIES:       # Lanczos: < 1 s at this size
-            from .solvers.modal import omega_max
-            w = omega_max(model)
-            if w > 0:
-                print(f"exact dt    {2.0 / w:.4g} s (2/ω_max, ω_max = {w:.4g} rad/s by Lanczos; "
-                      f"estimate/exact = {dt * w / 2.0:.3f})")
-        if case.solver.mode == "dynamic":
-            print(f"steps       {int(case.solver.end_time / (dt * case.solver.dt_safety)) + 1}")
-        return 0
+        return _info(case, model, threads or numba.get_num_threads())
     return _run(case, model, args, threads or numba.get_num_threads())
+
+
+def _info(case, model, threads):
+    """Counts, steps, memory and output size of the case, without running
+    (rbsm_dyn/io/estimate.py says how each figure is made)."""
+    from .io.estimate import estimate, format_bytes
+    e = estimate(case, model, extra_observables=EXTRA_OBSERVABLES.get(case.solver.mode, {}),
+                 threads=threads)
+    dt = e.dt_estimate
+    print(f"case        {case.name} ({case.solver.mode})")
+    print(f"bodies      {e.n_bodies}")
+    print(f"springs     {e.n_springs} ({e.n_supports} supports, {model.n_cut} cut)")
+    print(f"stable dt   {dt:.4g} s (estimate; used × dt_safety {case.solver.dt_safety})")
+    if model.n_bodies <= INFO_OMEGA_MAX_BODIES:       # Lanczos: < 1 s at this size
+        from .solvers.modal import omega_max
+        w = omega_max(model)
+        if w > 0:
+            print(f"exact dt    {2.0 / w:.4g} s (2/ω_max, ω_max = {w:.4g} rad/s by Lanczos; "
+                  f"estimate/exact = {dt * w / 2.0:.3f})")
+    if e.steps is not None:
+        print(f"steps       {e.steps} (dt = {e.dt:.4g} s to end_time {case.solver.end_time:g} s)")
+        print(f"frames      {e.frames} (every {e.out_every} steps)")
+    else:
+        print(f"frames      {e.frames}")
+    print(f"memory      {format_bytes(e.memory_bytes)} (model {format_bytes(e.model_bytes)}, "
+          f"state {format_bytes(e.state_bytes)}, output buffers {format_bytes(e.buffer_bytes)}"
+          + (f", stiffness matrix {format_bytes(e.matrix_bytes)}" if e.matrix_bytes else "")
+          + ")")
+    print(f"output      {format_bytes(e.output_bytes)} -> {case.output.file} "
+          f"({format_bytes(e.static_bytes)} static + {e.frames} frames of "
+          f"{format_bytes(e.frame_bytes)}; fields: {', '.join(case.output.fields) or 'none'})")
+    return 0
+
+
+EXTRA_OBSERVABLES = {"static": {"residual": "1"}, "linear": {"residual": "1"},
+                     "modal": {"frequency": "Hz"}}
 
 
 def _run(case, model, args, threads):
@@ -111,8 +156,7 @@ def _run(case, model, args, threads):
     from .solvers import explicit, linear, modal, relax
     from .solvers.output import Recorder
     out = args.out or case.output.file
-    extra = {"static": {"residual": "1"}, "linear": {"residual": "1"},
-             "modal": {"frequency": "Hz"}}.get(case.solver.mode, {})
+    extra = EXTRA_OBSERVABLES.get(case.solver.mode, {})
     rec = Recorder(case, model, out, threads=threads, extra_observables=extra)
     progress = Progress(not args.quiet and sys.stderr.isatty() or (not args.quiet and os.environ.get("RBSM_PROGRESS")))
     t0 = time.perf_counter()

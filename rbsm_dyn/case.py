@@ -487,13 +487,35 @@ def _nearest_line(lines: dict, path: KeyPath) -> Optional[int]:
     return lines.get(path)
 
 
-def _plain(node: Any, path: KeyPath, lines: dict, file: str) -> Any:
-    """Copy the ruamel tree into plain Python, recording lines in ``lines``."""
+#: Values that YAML aliases (``*name``) may add to a document in all: enough
+#: to reuse a material or a table many times, not enough for an alias bomb
+#: (nested aliases that expand to 10⁹ values from a few lines of text).
+MAX_ALIAS_VALUES = 100_000
+
+_NON_CORE = {"CommentedSet": "!!set", "CommentedKeySeq": "a list as a key",
+             "CommentedKeyMap": "a mapping as a key"}
+
+
+def _plain(node: Any, path: KeyPath, lines: dict, file: str,
+           _alias: Optional[dict] = None) -> Any:
+    """Copy the ruamel tree into plain Python, recording lines in ``lines``.
+
+    A list or mapping met a second time is an alias; the values copied under
+    aliases are counted and refused beyond ``MAX_ALIAS_VALUES``."""
+    if _alias is None:
+        _alias = {"seen": set(), "count": 0, "inside": False}
+
     def bad_tag(tag: str) -> CaseError:
         tag = tag.replace("tag:yaml.org,2002:", "!!")
         return CaseError(file, _nearest_line(lines, path), path,
                          f"tag {tag} is not allowed (plain YAML values only)")
 
+    if _alias["inside"]:
+        _alias["count"] += 1
+        if _alias["count"] > MAX_ALIAS_VALUES:
+            raise CaseError(file, _nearest_line(lines, path), path,
+                            f"aliases expand to more than {MAX_ALIAS_VALUES} values "
+                            "(nested aliases: an alias bomb?)")
     if isinstance(node, TaggedScalar):
         if node.tag.value == "tag:yaml.org,2002:str":
             return str(node.value)
@@ -502,26 +524,15 @@ def _plain(node: Any, path: KeyPath, lines: dict, file: str) -> Any:
     if tag is not None and tag not in _CORE_TAGS and isinstance(
             node, (CommentedMap, CommentedSeq)):
         raise bad_tag(tag)
-    if isinstance(node, dict):
-        out = {}
-        for key in node:
-            if isinstance(key, (dict, list, CommentedMap, CommentedSeq)):
-                raise CaseError(file, _nearest_line(lines, path), path,
-                                "keys must be plain names")
-            k = _plain(key, path, lines, file)
-            try:
-                lines[path + (k,)] = node.lc.key(key)[0] + 1
-            except (KeyError, AttributeError, TypeError):
-                pass  # merged (<<) keys have no line of their own
-            out[k] = _plain(node[key], path + (k,), lines, file)
-        return out
-    if isinstance(node, list):
-        for i in range(len(node)):
-            try:
-                lines[path + (i,)] = node.lc.item(i)[0] + 1
-            except (KeyError, AttributeError, TypeError):
-                pass
-        return [_plain(v, path + (i,), lines, file) for i, v in enumerate(node)]
+    if isinstance(node, (dict, list)):
+        outer = _alias["inside"]
+        if id(node) in _alias["seen"]:
+            _alias["inside"] = True
+        _alias["seen"].add(id(node))
+        try:
+            return _plain_container(node, path, lines, file, _alias)
+        finally:
+            _alias["inside"] = outer
     if isinstance(node, bool) or type(node).__name__ == "ScalarBoolean":
         return bool(node)
     if isinstance(node, int):
@@ -534,7 +545,31 @@ def _plain(node: Any, path: KeyPath, lines: dict, file: str) -> Any:
         return node.isoformat()
     if node is None:
         return None
-    raise bad_tag("!!binary" if isinstance(node, bytes) else type(node).__name__)
+    raise bad_tag("!!binary" if isinstance(node, bytes)
+                  else _NON_CORE.get(type(node).__name__, type(node).__name__))
+
+
+def _plain_container(node, path, lines, file, alias):
+    if isinstance(node, dict):
+        out = {}
+        for key in node:
+            if isinstance(key, (dict, list, tuple, set)):
+                raise CaseError(file, _nearest_line(lines, path), path,
+                                "keys must be plain names (got "
+                                f"{_NON_CORE.get(type(key).__name__, 'a collection')})")
+            k = _plain(key, path, lines, file, alias)
+            try:
+                lines[path + (k,)] = node.lc.key(key)[0] + 1
+            except (KeyError, AttributeError, TypeError):
+                pass  # merged (<<) keys have no line of their own
+            out[k] = _plain(node[key], path + (k,), lines, file, alias)
+        return out
+    for i in range(len(node)):
+        try:
+            lines[path + (i,)] = node.lc.item(i)[0] + 1
+        except (KeyError, AttributeError, TypeError):
+            pass
+    return [_plain(v, path + (i,), lines, file, alias) for i, v in enumerate(node)]
 
 
 def _parse(text: str, file: str) -> tuple[dict, dict]:

@@ -30,8 +30,11 @@ run killed at any moment (even SIGKILL) leaves a readable file.
 
 Reader
 ------
-:func:`open_history` reads the whole file into NumPy arrays truncated to
-``frames`` rows; see :class:`History` and docs/history.md.
+:func:`open_history` reads the file (all frames, or a selection) into NumPy
+arrays truncated to ``frames`` rows; see :class:`History` and
+docs/history.md.  :meth:`History.to_xarray` (or ``open_history(path,
+xarray=True)``) gives an xarray Dataset with dims ``frame``, ``body``,
+``spring`` when xarray is installed (``pip install 'rbsm_dyn[xarray]'``).
 """
 from __future__ import annotations
 
@@ -43,7 +46,8 @@ from typing import Any, Mapping
 import h5py
 import numpy as np
 
-__all__ = ["HistoryWriter", "History", "open_history", "H5MD_VERSION"]
+__all__ = ["HistoryWriter", "History", "open_history", "frame_indices", "history_to_xarray",
+           "H5MD_VERSION"]
 
 H5MD_VERSION = (1, 1)
 _UNITS_MODULE_VERSION = (1, 0)
@@ -396,6 +400,12 @@ class History:
         differs from ``time``.
     status : "running" (run going or killed), "completed" or "failed: ...".
     h5md_version, creator, creator_version, author.
+    frames_in_file : complete frames in the file; frame_index (T,) : which
+        of them were read (``open_history(path, frames=...)``; all by default,
+        then ``frames == frames_in_file``).
+    position0, orientation0 : (N, 3), (N, 4) positions and orientations at
+        file frame 0 (read even when frame 0 is not selected), or None;
+        observables0 : {name: value at file frame 0}.
     """
 
     BODIES = "particles/bodies"
@@ -416,6 +426,11 @@ class History:
         self.creator = self.creator_version = self.author = None
         self.observables: dict[str, np.ndarray] = {}
         self.observable_time: dict[str, np.ndarray] = {}
+        self.frames_in_file = 0
+        self.frame_index = np.zeros(0, dtype=np.int64)
+        self.position0: np.ndarray | None = None
+        self.orientation0: np.ndarray | None = None
+        self.observables0: dict[str, float] = {}
 
     # convenience -------------------------------------------------------
     def _body(self, name: str):
@@ -445,9 +460,71 @@ class History:
         x = self.position
         if x is None:
             return None
-        if len(x) == 0:
+        if len(x) == 0 or self.position0 is None:
             return np.zeros_like(x)
-        return x - x[0]
+        return x - self.position0
+
+    @property
+    def spring_state(self):
+        """(T, S) int8 spring states (0 elastic, 1 yielded, 2 broken,
+        3 contact), or None when not written."""
+        return self.series.get("springs/state")
+
+    @property
+    def spring_force(self):
+        """(T, S, 3) [N] spring forces, or None when not written."""
+        return self.series.get("springs/force")
+
+    @property
+    def n_bodies(self) -> int | None:
+        """Number of bodies N (from the static masses or the positions)."""
+        m = self.static.get(f"{self.BODIES}/mass")
+        if m is not None:
+            return int(np.shape(m)[0])
+        x = self.position
+        return None if x is None else int(x.shape[1])
+
+    @property
+    def n_springs(self) -> int | None:
+        """Number of spring points S (from /connectivity/springs)."""
+        c = self.static.get("connectivity/springs")
+        return None if c is None else int(np.shape(c)[0])
+
+    def case(self) -> dict:
+        """The resolved case (``/parameters/case`` as a dict), {} if absent."""
+        return self.parameter_json("case") if "case" in self.parameters else {}
+
+    def energy_balance(self) -> dict:
+        """Energy balance of the run (solvers/output.py), each (T,) [J]:
+        ``stored`` = kinetic + strain, ``dissipated`` = damping + plastic +
+        fracture, ``supplied`` = kinetic(0) + strain(0) + external_work, and
+        ``error`` = stored + dissipated - supplied (0 for an exact balance).
+        Missing observables count as 0."""
+        o = self.observables
+        zero = np.zeros(self.frames)
+
+        def get(name):
+            return np.asarray(o.get(name, zero), np.float64)
+
+        stored = get("kinetic") + get("strain")
+        dissipated = get("damping") + get("plastic") + get("fracture")
+        o0 = self.observables0
+        e0 = float(o0.get("kinetic", 0.0)) + float(o0.get("strain", 0.0))
+        supplied = e0 + get("external_work")
+        return {"stored": stored, "dissipated": dissipated, "supplied": supplied,
+                "error": stored + dissipated - supplied}
+
+    def geometry(self):
+        """The cells and faces (reference configuration) and their rigid
+        motion: :class:`rbsm_dyn.io.geometry.CellGeometry`."""
+        from .geometry import CellGeometry
+        return CellGeometry.from_history(self)
+
+    def to_xarray(self):
+        """The history as an ``xarray.Dataset`` (dims ``frame``, ``body``,
+        ``spring``, ``xyz``, ``wxyz``); needs xarray
+        (``pip install 'rbsm_dyn[xarray]'``).  See :func:`history_to_xarray`."""
+        return history_to_xarray(self)
 
     def parameter_json(self, name: str) -> Any:
         """``/parameters/<name>`` parsed as JSON."""
@@ -492,13 +569,52 @@ def _open_h5(path: str) -> h5py.File:
             raise swmr_err from None
 
 
-def open_history(path) -> History:
+def frame_indices(frames, n: int) -> np.ndarray:
+    """File frame indices (sorted, unique, int64) selected by ``frames`` out
+    of ``n`` complete frames: None (all), an int (negative counts from the
+    end), a slice, or a sequence of ints.  Raises IndexError for an int out
+    of range (a slice is clipped, as in Python)."""
+    if frames is None:
+        return np.arange(n, dtype=np.int64)
+    if isinstance(frames, slice):
+        return np.arange(n, dtype=np.int64)[frames]
+    if isinstance(frames, (int, np.integer)):
+        k = int(frames)
+        if not -n <= k < n:
+            raise IndexError(f"frame {k} out of range: the file has {n} complete frames")
+        return np.array([k % n], dtype=np.int64)
+    idx = np.asarray(frames, dtype=np.int64).ravel()
+    bad = idx[(idx < -n) | (idx >= n)]
+    if len(bad):
+        raise IndexError(f"frame {int(bad[0])} out of range: the file has {n} complete frames")
+    return np.unique(idx % n) if n else idx
+
+
+def _take(ds: h5py.Dataset, idx: np.ndarray) -> np.ndarray:
+    """Rows ``idx`` (sorted, unique) of a dataset along axis 0, as one
+    hyperslab when they are evenly spaced."""
+    if len(idx) == 0:
+        return ds[0:0]
+    if len(idx) == 1:
+        return ds[int(idx[0]):int(idx[0]) + 1]
+    d = np.diff(idx)
+    if np.all(d == d[0]):
+        return ds[int(idx[0]):int(idx[-1]) + 1:int(d[0])]
+    return ds[idx]
+
+
+def open_history(path, *, frames=None, xarray: bool = False):
     """Open a history file read-only and read it into memory.
 
     Everything time-dependent is truncated to the root attribute ``frames``
     (the number of complete frames), so a file being written or left by a
     killed run gives consistent arrays.  Files without ``frames`` (other H5MD
     writers) use the shortest series.
+
+    ``frames`` selects file frames (see :func:`frame_indices`: an int, a
+    slice such as ``slice(None, None, 10)``, or a list); only those rows are
+    read.  ``xarray=True`` returns :meth:`History.to_xarray` instead of the
+    :class:`History`.
     """
     h = History(path)
     with _open_h5(str(path)) as f:
@@ -544,18 +660,30 @@ def open_history(path) -> History:
             T = int(frames_attr)
         else:
             T = min(lengths.values()) if lengths else 0
-        h.frames = T
+        h.frames_in_file = T
+        idx = frame_indices(frames, T)
+        h.frame_index = idx
+        h.frames = len(idx)
 
         for p, g in sorted(series_groups.items()):
             n = min(T, lengths[p])
-            value = g["value"][:n]
+            ip = idx[idx < n]
+            value = _take(g["value"], ip)
             h.series[p] = value
             h.units[p] = _attr_str(g["value"], "unit", "1")
             st = _read_step_time(g, "step", n)
             tm = _read_step_time(g, "time", n)
-            h.series_step[p] = np.asarray(st if st is not None else np.arange(n), np.int64)
-            h.series_time[p] = np.asarray(tm if tm is not None else np.full(n, np.nan),
+            h.series_step[p] = np.asarray(st[ip] if st is not None else ip, np.int64)
+            h.series_time[p] = np.asarray(tm[ip] if tm is not None else np.full(len(ip), np.nan),
                                           np.float64)
+            if n > 0:
+                if p == f"{History.BODIES}/position":
+                    h.position0 = value[0] if len(ip) and ip[0] == 0 else g["value"][0]
+                elif p == f"{History.BODIES}/orientation":
+                    h.orientation0 = value[0] if len(ip) and ip[0] == 0 else g["value"][0]
+                elif p.startswith("observables/") and g["value"].ndim == 1:
+                    h.observables0[p[len("observables/"):]] = float(
+                        value[0] if len(ip) and ip[0] == 0 else g["value"][0])
         for p, ds in sorted(static_ds.items()):
             h.static[p] = _read_dataset(ds)
             if "unit" in ds.attrs:
@@ -577,4 +705,114 @@ def open_history(path) -> History:
             t = h.series_time[p]
             if t.shape != h.time.shape or not np.array_equal(t, h.time):
                 h.observable_time[name] = t
-    return h
+    return h.to_xarray() if xarray else h
+
+
+# ==================================================================== xarray
+_XYZ = ("x", "y", "z")
+_WXYZ = ("w", "x", "y", "z")
+
+
+def _xr_dims(path: str, shape: tuple[int, ...], n_bodies, n_springs, lead=()):
+    """Dimension names for an array of ``shape`` (after the ``lead`` dims)."""
+    dims = list(lead)
+    rest = list(shape[len(lead):])
+    if rest and n_bodies is not None and rest[0] == n_bodies and not path.startswith("springs") \
+            and not path.startswith("connectivity"):
+        dims.append("body")
+        rest = rest[1:]
+    elif rest and n_springs is not None and rest[0] == n_springs and \
+            (path.startswith("springs") or path.startswith("connectivity")):
+        dims.append("spring")
+        rest = rest[1:]
+    else:
+        return None
+    for j, d in enumerate(rest):
+        if d == 3:
+            dims.append("xyz" if j == len(rest) - 1 else "xyz_row")
+        elif d == 4 and j == len(rest) - 1:
+            dims.append("wxyz")
+        elif d == 2 and path == "connectivity/springs":
+            dims.append("end")
+        else:
+            dims.append(f"{path.rsplit('/', 1)[-1]}_dim{j}")
+    return dims
+
+
+def history_to_xarray(h: "History"):
+    """An ``xarray.Dataset`` of a :class:`History`.
+
+    Dims: ``frame`` (the frames read; coordinates ``time`` [s], ``step``,
+    ``frame`` = index in the file), ``body``, ``spring``, ``xyz``, ``wxyz``
+    (quaternion components, scalar first), ``end`` (the two bodies of a
+    spring).  Variables: the body series by their last path element
+    (``position``, ``orientation``, ``velocity``, ``angular_velocity``) and
+    ``displacement``; ``spring_state``, ``spring_force``, ...; every
+    observable by its name (``kinetic``, probes, ...); per-body and
+    per-spring static arrays (``mass``, ``volume``, ``reference_position``,
+    ``spring_bodies``, ``spring_area``, ...).  Each variable has attrs
+    ``units`` and ``path`` (its path in the HDF5 file).  Mesh geometry
+    (ragged arrays) stays out: use :meth:`History.geometry`.
+    """
+    try:
+        import xarray as xr
+    except ImportError as exc:      # optional extra
+        raise ImportError("History.to_xarray needs xarray: pip install 'rbsm_dyn[xarray]' "
+                          "(or pip install xarray); the NumPy arrays need nothing more") from exc
+    N, S = h.n_bodies, h.n_springs
+    coords = {"frame": ("frame", h.frame_index), "time": ("frame", h.time),
+              "step": ("frame", h.step), "xyz": list(_XYZ), "wxyz": list(_WXYZ)}
+    if N is not None:
+        coords["body"] = np.arange(N)
+    if S is not None:
+        coords["spring"] = np.arange(S)
+    data = {}
+
+    def add(name, path, arr, dims):
+        unit = h.units.get(path, "1")
+        if name in data:
+            name = path.replace("/", "_")
+        data[name] = xr.Variable(dims, arr, attrs={"units": unit, "path": path})
+
+    for p, v in h.series.items():
+        if len(v) != h.frames:
+            continue                  # a series shorter than the frames: leave it out
+        tail = p.rsplit("/", 1)[-1]
+        if p.startswith("observables/"):
+            name = p[len("observables/"):]
+            if name in h.observable_time:
+                continue
+            if v.ndim == 1:
+                add(name, p, v, ("frame",))
+            continue
+        dims = _xr_dims(p, v.shape, N, S, lead=("frame",))
+        if dims is None:
+            continue
+        name = tail if p.startswith(History.BODIES) else "spring_" + tail
+        add(name, p, v, dims)
+    if h.position is not None and len(h.position) == h.frames:
+        add("displacement", f"{History.BODIES}/position", h.displacement,
+            ("frame", "body", "xyz"))
+    for p, v in h.static.items():
+        if not isinstance(v, np.ndarray) or v.ndim == 0 or v.dtype == object:
+            continue
+        if "/geometry/" in p or p.startswith("springs/faces") or \
+                p.startswith("springs/boundary_faces") or p.startswith("modes"):
+            continue
+        dims = _xr_dims(p, v.shape, N, S)
+        if dims is None:
+            continue
+        tail = p.rsplit("/", 1)[-1]
+        if p == "connectivity/springs":
+            name = "spring_bodies"
+        elif p.startswith("springs/"):
+            name = "spring_" + tail
+        else:
+            name = tail
+        add(name, p, v, dims)
+    attrs = {"path": h.path, "status": h.status or "", "frames_in_file": h.frames_in_file,
+             "creator": h.creator or "", "creator_version": h.creator_version or ""}
+    case = h.case()
+    if case.get("name"):
+        attrs["case_name"] = case["name"]
+    return xr.Dataset(data, coords=coords, attrs=attrs)

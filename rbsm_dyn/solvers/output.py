@@ -96,6 +96,11 @@ class Recorder:
         w.write_static("springs/faces/vertex_ptr", mesh.face_vertex_ptr, "1")
         w.write_static("springs/faces/vertex_xyz", mesh.face_vertex_xyz, "m")
         w.write_static("springs/faces/cells", mesh.face_cells, "1")
+        # boundary face polygons: support spring s (springs/face[s] < 0) lies
+        # on boundary face -1 - springs/face[s] (drawn by export and render)
+        w.write_static("springs/boundary_faces/vertex_ptr", mesh.bface_vertex_ptr, "1")
+        w.write_static("springs/boundary_faces/vertex_xyz", mesh.bface_vertex_xyz, "m")
+        w.write_static("springs/boundary_faces/cell", mesh.bface_cell, "1")
         for name in self.fields:
             path_, tail, dt, unit = FIELD_SERIES[name]
             if tail is None:

@@ -1,0 +1,192 @@
+"""What a run will cost, before it runs (``python -m rbsm_dyn info``).
+
+* frames: the output schedule of each solver mode --
+  dynamic: n = ceil(end_time / dt) steps, a frame every
+  k = round(interval / dt) steps, at step 0 and at the last step
+  (solvers/explicit.py), so 1 + floor(n / k) (+1 when k does not divide n);
+  static: frame 0 and one per load step; linear: 2; modal: modes + 1.
+* output size: the static part of the history is written for real, by the
+  run's own Recorder, to a temporary file and measured; each series then
+  grows by whole HDF5 chunks (io/history.py: ``value`` in chunks of about
+  1 MiB, ``step`` and ``time`` in chunks of 1024 frames), so the size after
+  T frames is that file plus ceil(T / rows) chunks per dataset.  The modal
+  /modes group is added (M × N × 6 float64).  This is the size of the file
+  that the run leaves, within a few per cent (tests/test_info.py: a short
+  run's file is within a factor 1.1 of the estimate).
+* memory: the bytes of every array of the Model (mesh included) and of the
+  explicit State, plus the per-frame output buffers (the peak of a dynamic
+  or static run; Python and Numba themselves add about 150 MB).  Linear and
+  modal modes add the assembled sparse stiffness (36 entries per body and 72
+  per touching pair, 12 bytes each, twice for the conversion to CSR), before
+  the solver's own work space (a direct factorization takes several times
+  that).
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+import tempfile
+
+import h5py
+import numpy as np
+
+__all__ = ["Estimate", "estimate", "count_frames", "array_bytes", "format_bytes"]
+
+#: B-tree and object headers per chunk written (HDF5, measured order)
+CHUNK_OVERHEAD = 64
+
+
+@dataclasses.dataclass
+class Estimate:
+    """Figures of a case, in SI and bytes."""
+    mode: str
+    n_bodies: int
+    n_springs: int
+    n_supports: int
+    dt_estimate: float            #: Model.stable_dt() [s]
+    dt: float | None              #: step used (dynamic) [s]
+    steps: int | None             #: steps to the end time (dynamic)
+    out_every: int | None         #: steps between frames (dynamic)
+    frames: int                   #: frames the history will hold
+    static_bytes: int             #: file with no frame (measured)
+    frame_bytes: float            #: value bytes per frame (payload, no chunking)
+    output_bytes: int             #: estimated file size after `frames`
+    model_bytes: int              #: Model + Mesh arrays
+    state_bytes: int              #: State arrays
+    buffer_bytes: int             #: output buffers per frame
+    matrix_bytes: int = 0         #: sparse stiffness (linear, modal)
+
+    @property
+    def memory_bytes(self) -> int:
+        return self.model_bytes + self.state_bytes + self.buffer_bytes + self.matrix_bytes
+
+
+def format_bytes(n: float) -> str:
+    for unit in ("B", "KiB", "MiB", "GiB", "TiB"):
+        if abs(n) < 1024 or unit == "TiB":
+            return f"{n:.0f} {unit}" if unit == "B" else f"{n:.3g} {unit}"
+        n /= 1024.0
+    return f"{n:.3g} TiB"
+
+
+def array_bytes(obj, _seen=None) -> int:
+    """Bytes of the NumPy arrays held by a dataclass or plain object (one
+    level of nested dataclasses/objects, dicts and lists; each array once)."""
+    seen = set() if _seen is None else _seen
+    total = 0
+
+    def visit(v, depth):
+        nonlocal total
+        if isinstance(v, np.ndarray):
+            base = v if v.base is None else v.base
+            if id(base) not in seen:
+                seen.add(id(base))
+                total += int(getattr(base, "nbytes", v.nbytes))
+        elif depth > 2:
+            return
+        elif isinstance(v, dict):
+            for x in v.values():
+                visit(x, depth + 1)
+        elif isinstance(v, (list, tuple)):
+            for x in v:
+                visit(x, depth + 1)
+        elif dataclasses.is_dataclass(v) and not isinstance(v, type):
+            for f in dataclasses.fields(v):
+                visit(getattr(v, f.name, None), depth + 1)
+        elif hasattr(v, "__dict__") and not isinstance(v, type):
+            for x in vars(v).values():
+                visit(x, depth + 1)
+
+    visit(obj, 0)
+    return total
+
+
+def count_frames(case, model):
+    """(frames, steps, dt, out_every) of a run of ``case`` on ``model``;
+    steps, dt, out_every are None outside the dynamic mode."""
+    s = case.solver
+    if s.mode == "dynamic":
+        from ..solvers.explicit import choose_dt
+        dt, _ = choose_dt(case, model)
+        n = int(np.ceil(s.end_time / dt - 1e-9))
+        k = max(1, int(round(case.output.interval / dt)))
+        frames = 1 + n // k + (1 if n % k else 0)
+        return frames, n, dt, k
+    if s.mode == "static":
+        return 1 + int(s.load_steps), None, None, None
+    if s.mode == "linear":
+        return 2, None, None, None
+    return 1 + int(s.modes), None, None, None
+
+
+def _series_bytes(f: h5py.File, frames: int):
+    """Bytes of every series of an open history after ``frames`` frames
+    (whole chunks), and the payload per frame."""
+    total = 0
+    per_frame = 0.0
+    groups = []
+    f.visititems(lambda name, obj: groups.append(obj)
+                 if isinstance(obj, h5py.Group) and isinstance(obj.get("value"), h5py.Dataset)
+                 and "step" in obj else None)
+    for g in groups:
+        for name in ("value", "step", "time"):
+            ds = g[name]
+            if ds.chunks is None:
+                continue
+            rows = ds.chunks[0]
+            chunk = ds.dtype.itemsize * math.prod(ds.chunks)
+            n_chunks = math.ceil(frames / rows)
+            # chunks split along the tail (frames over 1 GiB) multiply
+            for d, c in zip(ds.shape[1:], ds.chunks[1:]):
+                n_chunks *= math.ceil(max(d, 1) / c)
+            total += n_chunks * (chunk + CHUNK_OVERHEAD)
+            per_frame += ds.dtype.itemsize * math.prod(ds.shape[1:])
+    return total, per_frame
+
+
+def estimate(case, model, *, extra_observables=None, threads=1) -> Estimate:
+    """Frames, output size and memory of a run of ``case`` (module docstring).
+    Writes (and removes) a temporary history holding the static part."""
+    from ..solvers.output import Recorder
+    frames, steps, dt, every = count_frames(case, model)
+    seen: set = set()
+    model_bytes = array_bytes(model, seen)
+    fd, tmp = tempfile.mkstemp(suffix=".h5", prefix="rbsm_dyn_info_")
+    os.close(fd)
+    try:
+        rec = Recorder(case, model, tmp, threads=threads,
+                       extra_observables=extra_observables or {})
+        buffer_bytes = array_bytes(rec, seen)      # the model's arrays counted once
+        rec.close()
+        static_bytes = os.path.getsize(tmp)
+        with h5py.File(tmp, "r") as f:
+            series_bytes, frame_bytes = _series_bytes(f, frames)
+    finally:
+        try:
+            os.remove(tmp)
+        except OSError:
+            pass
+    output = static_bytes + series_bytes
+    if case.solver.mode == "modal":
+        output += int(case.solver.modes) * model.n_bodies * 6 * 8 + 4096
+    try:
+        from ..model import new_state
+        state_bytes = array_bytes(new_state(model))
+    except Exception:          # the State is being reworked: estimate it
+        state_bytes = model.n_bodies * 8 * (3 + 4 + 3 + 3 + 9 + 4 + 2 + 3) + \
+            model.n_springs * 8 * 6
+    # per frame: synchronized velocities and momenta, omega, the values dict
+    buffer_bytes += model.n_bodies * 8 * 3 * 6
+    matrix = 0
+    if case.solver.mode in ("linear", "modal"):
+        pairs = len({(int(a), int(b)) for a, b in np.asarray(model.spring_bodies)})
+        nnz = 36 * model.n_bodies + 72 * pairs
+        matrix = 2 * 12 * nnz
+    return Estimate(mode=case.solver.mode, n_bodies=model.n_bodies,
+                    n_springs=model.n_springs, n_supports=int(model.is_support.sum()),
+                    dt_estimate=float(model.stable_dt()), dt=dt, steps=steps,
+                    out_every=every, frames=frames, static_bytes=int(static_bytes),
+                    frame_bytes=float(frame_bytes), output_bytes=int(output),
+                    model_bytes=int(model_bytes), state_bytes=int(state_bytes),
+                    buffer_bytes=int(buffer_bytes), matrix_bytes=int(matrix))

@@ -1,0 +1,306 @@
+"""Pictures of a history: the deformed cells with their cracks, and the
+probes and energies over time.
+
+    python -m rbsm_dyn render RUN.h5 [--frame K] [--out PNG] [--scale F]
+    python -m rbsm_dyn plot RUN.h5 [--out PNG]
+
+``render`` draws frame K (default the last) off-screen with pyvista: the
+cells coloured by the magnitude of their displacement, displacements
+magnified by F (default: chosen so that the largest displacement shows as
+about 4 % of the domain size, rounded to 1, 2 or 5 × 10^n, never below 1);
+the factor is printed and written in the picture.  Faces on which a spring
+broke are drawn red (their edges too, so that a crack shows through the
+cells), yielded faces orange.  The view looks along the thinnest side of the
+domain (y on a tie), z up.
+
+``plot`` draws the energies (kinetic, strain, dissipated, external work and
+the balance error, solvers/output.py) and each probe over time with
+matplotlib (the optional extra ``rbsm_dyn[plot]``).
+
+Off-screen rendering needs an OpenGL implementation, not a screen.  The VTK
+wheels from PyPI (>= 9.4) choose one at run time: an X display if DISPLAY is
+set, else EGL (libEGL and Mesa: Debian ``libegl1 libegl-mesa0
+libgl1-mesa-dri``), else OSMesa (``libosmesa6``).  Without DISPLAY we ask
+VTK for EGL directly (VTK_DEFAULT_OPENGL_WINDOW=vtkEGLRenderWindow, which
+also silences its "bad X server connection" warning) when libEGL is found,
+OSMesa when only that is; with none of them :class:`RendererUnavailable`
+says what to install (or run under ``xvfb-run``).
+"""
+from __future__ import annotations
+
+import ctypes.util
+import math
+import os
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from .export import cells_mesh, faces_mesh
+from .history import open_history
+
+__all__ = ["render", "plot", "auto_scale", "RendererUnavailable", "check_renderer"]
+
+STATE_COLORS = {1: "orange", 2: "red", 3: "red"}
+
+
+class RendererUnavailable(RuntimeError):
+    """No OpenGL implementation for off-screen rendering."""
+
+
+def check_renderer(find_library=ctypes.util.find_library, environ=os.environ) -> str:
+    """Choose VTK's OpenGL window for off-screen use and return its name
+    ("x", "egl" or "osmesa"); raise :class:`RendererUnavailable` with what
+    to install when there is none.  Sets VTK_DEFAULT_OPENGL_WINDOW unless
+    the user did."""
+    if environ.get("VTK_DEFAULT_OPENGL_WINDOW"):
+        return environ["VTK_DEFAULT_OPENGL_WINDOW"]
+    if environ.get("DISPLAY") or environ.get("WAYLAND_DISPLAY"):
+        return "x"
+    if find_library("EGL"):
+        environ["VTK_DEFAULT_OPENGL_WINDOW"] = "vtkEGLRenderWindow"
+        return "egl"
+    if find_library("OSMesa"):
+        environ["VTK_DEFAULT_OPENGL_WINDOW"] = "vtkOSOpenGLRenderWindow"
+        return "osmesa"
+    raise RendererUnavailable(
+        "no OpenGL renderer for off-screen pictures: no DISPLAY, and neither libEGL nor "
+        "libOSMesa is installed. Install Mesa's EGL (Debian/Ubuntu: apt-get install libegl1 "
+        "libegl-mesa0 libgl1-mesa-dri) or OSMesa (apt-get install libosmesa6), or run under "
+        "a virtual screen (apt-get install xvfb; xvfb-run python -m rbsm_dyn render ...)")
+
+
+def auto_scale(max_disp: float, size: float, target: float = 0.04) -> float:
+    """Magnification that shows the largest displacement as about
+    ``target`` × size, rounded down to 1, 2 or 5 × 10^n; 1 if the
+    displacements are already that large (or zero)."""
+    if not (max_disp > 0) or not (size > 0):
+        return 1.0
+    raw = target * size / max_disp
+    if raw <= 1.0:
+        return 1.0
+    e = math.floor(math.log10(raw))
+    for m in (5, 2, 1):
+        if m * 10.0 ** e <= raw * (1 + 1e-12):
+            return float(m * 10.0 ** e)
+    return 1.0
+
+
+def _fmt_scale(s: float) -> str:
+    return f"{s:g}"
+
+
+def _view(box_min, box_max):
+    """Camera direction (from the focal point to the camera) and up vector:
+    along the thinnest side (y first on a tie), z up."""
+    ext = np.asarray(box_max) - np.asarray(box_min)
+    order = [1, 0, 2]                       # prefer y, then x, then z
+    axis = min(order, key=lambda a: (ext[a], order.index(a)))
+    direction = np.zeros(3)
+    direction[axis] = -1.0 if axis == 1 else 1.0    # look from -y (x right, z up)
+    up = np.array([0.0, 0.0, 1.0]) if axis != 2 else np.array([0.0, 1.0, 0.0])
+    return direction, up
+
+
+def render(path, *, frame: int = -1, out=None, scale: float | None = None,
+           window_size=(1600, 800), show_edges: bool = True) -> dict:
+    """Draw frame ``frame`` of history ``path`` to a PNG (module docstring).
+    Returns ``{"out", "frame", "time", "scale", "max_displacement",
+    "n_broken_faces", "n_yielded_faces", "renderer"}``."""
+    renderer = check_renderer()
+    import pyvista as pv
+    pv.OFF_SCREEN = True
+    path = Path(path)
+    h = open_history(path, frames=frame)
+    if h.position is None:
+        raise KeyError(f"{path}: no body positions in the history (output.fields)")
+    fi = int(h.frame_index[0])
+    out = Path(out) if out is not None else path.with_name(f"{path.stem}_frame{fi}.png")
+    geom = h.geometry()
+    true_cells = cells_mesh(h, 0, geom, scale=1.0)
+    umag = np.linalg.norm(true_cells.point_data["displacement"], axis=1)
+    box_min, box_max = geom.vertices.min(axis=0), geom.vertices.max(axis=0)
+    size = float(np.linalg.norm(box_max - box_min))
+    max_u = float(umag.max(initial=0.0))
+    if scale is None:
+        scale = auto_scale(max_u, size)
+    cells = cells_mesh(h, 0, geom, scale=scale) if scale != 1.0 else true_cells
+    cells.point_data["displacement [m]"] = umag
+    faces = faces_mesh(h, 0, geom, scale=scale, min_state=1)
+    state = np.asarray(faces.cell_data["state"]) if faces.n_cells else np.zeros(0)
+
+    case = h.case()
+    name = case.get("name") or path.stem
+    pl = pv.Plotter(off_screen=True, window_size=list(window_size))
+    pl.set_background("white")
+    pl.add_mesh(cells, scalars="displacement [m]", cmap="viridis", show_edges=show_edges,
+                edge_color="#303030", line_width=0.5, lighting=True,
+                scalar_bar_args={"title": "displacement [m]", "color": "black", "vertical": True,
+                                 "position_x": 0.89, "position_y": 0.1,
+                                 "height": 0.7, "width": 0.05, "fmt": "%.2e"})
+    n_broken = int(np.count_nonzero(state >= 2))
+    n_yield = int(np.count_nonzero(state == 1))
+    for st_sel, color in (((state == 1), "orange"), ((state >= 2), "red")):
+        ids = np.nonzero(st_sel)[0]
+        if len(ids) == 0:
+            continue
+        sub = faces.extract_cells(ids)
+        pl.add_mesh(sub, color=color, opacity=1.0, lighting=False)
+        pl.add_mesh(sub.extract_all_edges(), color=color, line_width=3,
+                    render_lines_as_tubes=False)
+    t = float(h.time[0])
+    mode = case.get("solver", {}).get("mode", "dynamic")
+    tlabel = {"static": f"load factor {t:.4g}", "modal": f"mode {int(h.step[0])}",
+              "linear": "linear solution"}.get(mode, f"t = {t:.4g} s")
+    text = (f"{name}: frame {fi}, {tlabel}\n"
+            f"displacement magnified x {_fmt_scale(scale)} (largest: {max_u:.3g} m)\n"
+            f"red: broken faces ({n_broken}), orange: yielded faces ({n_yield})")
+    pl.add_text(text, position="upper_left", font_size=11, color="black")
+    direction, up = _view(box_min, box_max)
+    centre = 0.5 * (box_min + box_max)
+    pl.camera.focal_point = centre
+    pl.camera.position = centre + direction * size * 3
+    pl.camera.up = up
+    pl.camera.parallel_projection = True
+    pl.reset_camera()
+    # fit the deformed picture (parallel scale = half the visible height),
+    # leaving room for the text above and the colour bar on the right
+    lo, hi = np.asarray(cells.bounds[0::2]), np.asarray(cells.bounds[1::2])
+    right = np.cross(-direction, up)
+    corners = np.array([[a, b, c] for a in (lo[0], hi[0]) for b in (lo[1], hi[1])
+                        for c in (lo[2], hi[2])])
+    w = np.ptp(corners @ right)
+    hgt = np.ptp(corners @ up)
+    aspect = window_size[0] / window_size[1]
+    pl.camera.focal_point = 0.5 * (lo + hi)
+    pl.camera.position = 0.5 * (lo + hi) + direction * size * 3
+    pl.camera.parallel_scale = 0.5 * max(hgt / 0.72, w / (0.78 * aspect))
+    out.parent.mkdir(parents=True, exist_ok=True)
+    pl.screenshot(str(out))
+    pl.close()
+    return {"out": str(out), "frame": fi, "time": t, "scale": float(scale),
+            "max_displacement": max_u, "n_broken_faces": n_broken,
+            "n_yielded_faces": n_yield, "renderer": renderer}
+
+
+# ------------------------------------------------------------------ plot
+ENERGIES = (("kinetic", "kinetic"), ("strain", "strain"), ("plastic", "plastic"),
+            ("fracture", "fracture"), ("damping", "damping"),
+            ("external_work", "external work"))
+NOT_PROBES = {name for name, _ in ENERGIES} | {"n_broken", "crack_area", "residual",
+                                               "frequency"}
+
+
+def plot(path, *, out=None, max_probes: int = 6) -> dict:
+    """Energies and probes of history ``path`` over time, one PNG
+    (matplotlib, Agg).  Returns ``{"out", "probes", "balance_error"}``
+    (balance_error: largest |error| / largest supplied energy)."""
+    try:
+        import matplotlib
+    except ImportError as exc:
+        raise ImportError("plot needs matplotlib: pip install 'rbsm_dyn[plot]'") from exc
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    path = Path(path)
+    out = Path(out) if out is not None else path.with_name(f"{path.stem}_plot.png")
+    h = open_history(path)
+    case = h.case()
+    mode = case.get("solver", {}).get("mode", "dynamic")
+    xlabel = {"static": "load factor λ", "modal": "mode", "linear": "frame"}.get(mode, "time [s]")
+    probes = [n for n in h.observables if n not in NOT_PROBES and n not in h.observable_time]
+    probes = probes[:max_probes]
+    extra = [n for n in ("n_broken", "residual")
+             if n in h.observables and n not in h.observable_time and np.any(h.observables[n])]
+    n_panels = 1 + len(probes) + len(extra)
+    fig, axes = plt.subplots(n_panels, 1, sharex=True, figsize=(8, 2.4 + 2.0 * n_panels),
+                             squeeze=False)
+    axes = axes[:, 0]
+    t = h.time
+    ax = axes[0]
+    for key, label in ENERGIES:
+        if key in h.observables and np.any(h.observables[key] != 0):
+            ax.plot(t, h.observables[key], label=label)
+    eb = h.energy_balance()
+    ax.plot(t, eb["error"], "k--", lw=1, label="balance error")
+    sup = float(np.max(np.abs(eb["supplied"]), initial=0.0))
+    rel = float(np.max(np.abs(eb["error"]), initial=0.0) / sup) if sup > 0 else 0.0
+    ax.set_ylabel("energy [J]")
+    ax.set_title(f"{case.get('name') or path.stem}: energies (balance error ≤ {rel:.2%} "
+                 "of the supplied energy)", fontsize=10)
+    ax.legend(fontsize=8, ncol=3)
+    ax.grid(alpha=0.3)
+    for ax, name in zip(axes[1:], probes + extra):
+        unit = h.units.get(f"observables/{name}", "1")
+        ax.plot(t, h.observables[name], color="C0")
+        ax.set_ylabel(f"{name} [{unit}]" if unit != "1" else name)
+        ax.grid(alpha=0.3)
+    axes[-1].set_xlabel(xlabel)
+    fig.tight_layout()
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=100)
+    plt.close(fig)
+    return {"out": str(out), "probes": probes, "balance_error": rel}
+
+
+# ------------------------------------------------------------------- CLI
+def add_arguments(p) -> None:
+    p.add_argument("history", help="history file (RUN.h5)")
+    p.add_argument("--frame", type=int, default=-1, metavar="K",
+                   help="frame to draw (negative counts from the end; default the last)")
+    p.add_argument("--out", metavar="PNG", help="picture file (default RUN_frameK.png)")
+    p.add_argument("--scale", type=float, default=None, metavar="F",
+                   help="displacement magnification (default: automatic, printed)")
+    p.add_argument("--size", type=int, nargs=2, default=(1600, 800), metavar=("W", "H"),
+                   help="picture size in pixels (default 1600 800)")
+    p.add_argument("--quiet", action="store_true", help="print nothing on success")
+
+
+def main(args) -> int:
+    """``python -m rbsm_dyn render`` on a parsed namespace."""
+    if not os.path.isfile(args.history):
+        print(f"rbsm_dyn: render: {args.history}: no such file", file=sys.stderr)
+        return 2
+    if args.scale is not None and not (args.scale > 0 and math.isfinite(args.scale)):
+        print(f"rbsm_dyn: render: --scale must be a positive number (got {args.scale})",
+              file=sys.stderr)
+        return 2
+    try:
+        res = render(args.history, frame=args.frame, out=args.out, scale=args.scale,
+                     window_size=tuple(args.size))
+    except RendererUnavailable as exc:
+        print(f"rbsm_dyn: render: {exc}", file=sys.stderr)
+        return 1
+    except (KeyError, IndexError, ValueError, OSError) as exc:
+        print(f"rbsm_dyn: render: {exc}", file=sys.stderr)
+        return 2
+    if not args.quiet:
+        print(f"rbsm_dyn: frame {res['frame']} (t = {res['time']:.4g}): displacement "
+              f"magnified x {_fmt_scale(res['scale'])} (largest {res['max_displacement']:.3g} m), "
+              f"{res['n_broken_faces']} broken and {res['n_yielded_faces']} yielded faces "
+              f"-> {res['out']}")
+    return 0
+
+
+def add_plot_arguments(p) -> None:
+    p.add_argument("history", help="history file (RUN.h5)")
+    p.add_argument("--out", metavar="PNG", help="picture file (default RUN_plot.png)")
+    p.add_argument("--quiet", action="store_true", help="print nothing on success")
+
+
+def main_plot(args) -> int:
+    """``python -m rbsm_dyn plot`` on a parsed namespace."""
+    if not os.path.isfile(args.history):
+        print(f"rbsm_dyn: plot: {args.history}: no such file", file=sys.stderr)
+        return 2
+    try:
+        res = plot(args.history, out=args.out)
+    except ImportError as exc:
+        print(f"rbsm_dyn: plot: {exc}", file=sys.stderr)
+        return 1
+    except (KeyError, ValueError, OSError) as exc:
+        print(f"rbsm_dyn: plot: {exc}", file=sys.stderr)
+        return 2
+    if not args.quiet:
+        print(f"rbsm_dyn: energies and {len(res['probes'])} probes "
+              f"(energy balance error ≤ {res['balance_error']:.2%}) -> {res['out']}")
+    return 0

@@ -1,0 +1,759 @@
+"""Bad input, tried hard (issue 6, item 7).
+
+A property-based test (hypothesis) mutates small valid case files: wrong
+types, missing keys, negative, zero, NaN, infinite and huge values, empty
+collections, groups that select nothing or overlap, unknown names, YAML
+syntax errors, tags, alias bombs, non-UTF-8 bytes.  Every mutated file goes
+through the command line's own entry, ``rbsm_dyn.__main__.main(argv)``, in
+this process (no subprocess per example): ``check`` first, then for some of
+the files it accepts ``info`` or a short run (``--max-steps 2``).  Each must
+end with
+
+* exit 2 and one line ``rbsm_dyn: FILE:LINE: KEY.PATH: message`` naming a
+  key that is in the file (or the missing key under a parent that is), or
+* exit 0, having built the model (and written only the file it was asked
+  to write), or, for a short run that blew up, exit 1 with the step and
+  time (DESIGN.md §4),
+
+never a traceback and never a hang (a hard per-example time limit).  The
+mesh limit ``rbsm_dyn.case.MAX_CELLS`` is lowered for the fuzz so that a
+"huge size" is refused by the resource check (naming mesh.size or
+mesh.divisions) instead of being built, and every accepted case stays
+small.  A few deterministic tests run the real command in a subprocess.
+"""
+import contextlib
+import copy
+import io
+import math
+import os
+import re
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import textwrap
+from pathlib import Path
+
+import pytest
+from hypothesis import HealthCheck, Phase, given, settings
+from hypothesis import strategies as st
+from ruamel.yaml import YAML
+
+import rbsm_dyn
+import rbsm_dyn.case as case_module
+from rbsm_dyn.__main__ import main
+
+# ------------------------------------------------------------------ bases ---
+# Small valid cases (a few to a few dozen bodies), one per solver mode and
+# most schema features, so that any mutation the schema accepts still builds
+# in tens of milliseconds.
+
+BASES = {
+    "dynamic_blocks": """\
+        name: fz-dyn
+        description: dynamic, blocks, supports, loads with history
+        domain: {box: [[0, 0, 0], [0.4, 0.1, 0.1]]}
+        mesh: {kind: blocks, divisions: [4, 2, 2], spring_points: centroid}
+        materials:
+          steel: {density: 8000, young: 200.0e9, poisson: 0.0}
+        groups:
+          tip: {box: [[0.3, -1, -1], [1, 1, 1]]}
+          root: {box: [[-1, -1, -1], [0.1, 1, 1]]}
+        boundary:
+          - {face: xmin, fix: all}
+          - {group: tip, fix: [y, rx]}
+        initial: [{group: tip, velocity: [0, 0, -1.0]}]
+        loads:
+          - {group: tip, force: [0, 0, -100.0], history: [[0, 0], [1.0e-5, 1]]}
+          - {gravity: [0, 0, -9.81]}
+        solver: {mode: dynamic, end_time: 1.0e-5, dt_safety: 0.8, damping: {alpha: 10.0}}
+        output:
+          file: fz-dyn.h5
+          interval: 2.0e-6
+          fields: [position, velocity, spring_state]
+          probes:
+            tip_z: {group: tip, quantity: displacement, component: z, reduce: mean}
+            root_r: {group: root, quantity: reaction, component: x, reduce: sum}
+        """,
+    "static_voronoi": """\
+        name: fz-static
+        domain: {box: [[0, 0, 0], [0.2, 0.05, 0.05]]}
+        mesh: {kind: voronoi, size: 0.025, seed: 3, min_spacing: 0.3}
+        materials:
+          concrete:
+            density: 2400
+            young: 30.0e9
+            poisson: 0.2
+            yield: {criterion: von_mises, stress: 30.0e6}
+            rupture: {strain: 1.0e-3}
+            friction: 0.5
+        groups:
+          end: {box: [[0.15, -1, -1], [1, 1, 1]]}
+        boundary:
+          - {face: xmin, fix: all}
+          - {group: end, displacement: [null, null, -1.0e-5]}
+        cuts:
+          - {point: [0.1, 0, 0], normal: [1, 0, 0], within: [[0.05, -1, -1], [0.15, 1, 0.02]]}
+        solver: {mode: static, load_steps: 2, tolerance: 1.0e-4, max_iterations: 500,
+                 relaxation: adaptive, predictor: true}
+        output:
+          probes:
+            end_z: {group: end, quantity: force, component: z, reduce: sum}
+        """,
+    "linear_mm": """\
+        name: fz-linear
+        units: mm-N-s
+        domain: {box: [[0, 0, 0], [300, 50, 50]]}
+        mesh: {kind: blocks, divisions: [6, 1, 2]}
+        materials:
+          steel: {density: 7.85e-9, young: 200000, poisson: 0.3, stiffness: kawai}
+          alu: {density: 2.7e-9, young: 70000, poisson: 0.33}
+        groups:
+          tip: {box: [[250, -1, -1], [1000, 1000, 1000]], material: alu}
+        boundary: [{face: xmin, fix: all}]
+        loads: [{group: tip, force: [0, 0, -1000], moment: [0, 1000, 0]}]
+        solver: {mode: linear}
+        output:
+          fields: [position, orientation, spring_force]
+          probes:
+            tip_z: {group: tip, quantity: displacement, component: magnitude, reduce: max}
+        """,
+    "modal_blocks": """\
+        name: fz-modal
+        domain: {box: [[0, 0, 0], [1.0, 0.1, 0.1]]}
+        mesh: {kind: blocks, divisions: [6, 1, 1], spring_points: three}
+        materials:
+          steel: {density: 8000, young: 200.0e9, poisson: 0.0}
+        boundary: [{face: xmin, fix: all}, {face: xmax, fix: [z]}]
+        solver: {mode: modal, modes: 3}
+        """,
+    "dynamic_voronoi_rupture": """\
+        name: fz-crack
+        domain: {box: [[0, 0, 0], [0.06, 0.003, 0.06]]}
+        mesh: {kind: voronoi, size: 0.006, seed: 1}
+        materials:
+          glass:
+            density: 2500
+            young: 60.0e9
+            poisson: 0.2
+            yield: {criterion: mohr_coulomb, cohesion: 1.0e7, friction_angle: 30, tension: 5.0e6}
+            rupture: {fracture_energy: 10.0, tensile_strength: 5.0e6}
+        groups:
+          top: {box: [[-1, -1, 0.045], [1, 1, 1]]}
+          bottom: {box: [[-1, -1, -1], [1, 1, 0.015]]}
+        boundary:
+          - {group: bottom, velocity: [0, null, -0.1], history: [[0, 1], [1.0e-6, 1]]}
+        initial: [{group: top, angular_velocity: [0, 1.0, 0]}]
+        loads: [{group: top, force: [0, 0, 500.0]}]
+        solver: {mode: dynamic, end_time: 2.0e-6, threads: 1}
+        output:
+          fields: [position, orientation, angular_velocity, spring_force]
+          probes:
+            top_v: {group: top, quantity: velocity, component: z, reduce: min}
+            top_r: {group: top, quantity: rotation, component: y, reduce: mean}
+        """,
+}
+BASES = {k: textwrap.dedent(v) for k, v in BASES.items()}
+
+FUZZ_MAX_CELLS = 150     # rbsm_dyn.case.MAX_CELLS during the fuzz
+EXAMPLES = 1100          # hypothesis examples (the test asserts >= 1000 were tried)
+EXAMPLE_TIME_LIMIT = 30  # seconds: an example that takes longer is a hang
+
+_safe = YAML(typ="safe", pure=True)
+
+
+def _load(text):
+    return _safe.load(text)
+
+
+def _dump(data):
+    y = YAML(typ="safe", pure=True)
+    y.default_flow_style = None
+    y.width = 4096
+    buf = io.StringIO()
+    y.dump(data, buf)
+    return buf.getvalue()
+
+
+BASE_DATA = {k: _load(v) for k, v in BASES.items()}
+
+# --------------------------------------------------------------- mutations ---
+
+SCHEMA_KEYS = [
+    "name", "description", "units", "domain", "mesh", "materials", "groups", "boundary",
+    "initial", "loads", "cuts", "solver", "output", "box", "kind", "size", "seed",
+    "min_spacing", "divisions", "spring_points", "density", "young", "poisson",
+    "stiffness", "yield", "rupture", "friction", "criterion", "stress", "cohesion",
+    "friction_angle", "tension", "strain", "fracture_energy", "tensile_strength",
+    "material", "face", "fix", "group", "velocity", "displacement", "history",
+    "angular_velocity", "force", "moment", "gravity", "point", "normal", "within",
+    "mode", "end_time", "dt", "dt_safety", "damping", "alpha", "load_steps", "tolerance",
+    "max_iterations", "relaxation", "damping_factor", "predictor", "threads", "modes",
+    "file", "interval", "fields", "probes", "quantity", "component", "reduce",
+    "yeild", "Young", "end-time", "", "all", "x", "steel", "tip",
+]
+WORDS = ["", " ", "abc", "all", "tip", "root", "steel", "glass", "nope", "xmin", "zmax",
+         "x", "rz", "magnitude", "mean", "dynamic", "static", "linear", "modal", "voronoi",
+         "blocks", "SI", "mm-N-s", "von_mises", "mohr_coulomb", "kawai", "position",
+         "1e-5", "0x10", "1_000", ".nan", "null", "~", "yes", "no", "on", "off",
+         "2001-12-14", "é", "名前", "a\nb", "a: b", "\t", "-", "*x", "&y", "!t",
+         "x.h5", "out/x.h5", ".", "..", "../up.h5", "a b.h5", "ü.h5", "x" * 300]
+NUMBERS = [0, -0.0, 1, -1, 2, 3, 0.5, -0.5, 0.49, 0.5, 0.9, 1.0, 89.9, 90, 1e-300, 5e-324,
+           -1e-300, 1e-12, 1e-6, 1e-3, 1e3, 1e6, 1e12, 1e30, 1e300, -1e300, 1.7976931348623157e308,
+           2 ** 31, 2 ** 63, 2 ** 64, -2 ** 63, 10 ** 30, 10 ** 400,
+           math.nan, math.inf, -math.inf]
+FACTORS = [-1.0, 0.0, 1e-300, 1e-12, 1e-3, 0.1, 0.5, 0.99, 1.01, 2.0, 10.0, 1e3, 1e12, 1e300]
+
+
+def _scalar():
+    return st.one_of(
+        st.sampled_from(NUMBERS),
+        st.sampled_from(WORDS),
+        st.booleans(),
+        st.none(),
+        st.floats(allow_nan=True, allow_infinity=True),
+        st.integers(min_value=-10 ** 20, max_value=10 ** 20),
+        st.text(max_size=6),
+    )
+
+
+def _value():
+    scalar = _scalar()
+    vec = st.lists(st.one_of(st.sampled_from(NUMBERS), st.none()), min_size=0, max_size=4)
+    box = st.lists(st.lists(st.sampled_from(NUMBERS[:20]), min_size=3, max_size=3),
+                   min_size=2, max_size=2)
+    return st.one_of(
+        scalar, vec, box,
+        st.just([]), st.just({}), st.just([[]]), st.just([{}]),
+        st.dictionaries(st.sampled_from(SCHEMA_KEYS), scalar, max_size=3),
+        st.lists(st.dictionaries(st.sampled_from(SCHEMA_KEYS), scalar, max_size=3), max_size=2),
+    )
+
+
+def _paths(node, path=()):
+    """Every (path, value) below the root (dict values and list items)."""
+    if isinstance(node, dict):
+        for k, v in node.items():
+            yield path + (k,), v
+            yield from _paths(v, path + (k,))
+    elif isinstance(node, list):
+        for i, v in enumerate(node):
+            yield path + (i,), v
+            yield from _paths(v, path + (i,))
+
+
+def _get(data, path):
+    for p in path:
+        data = data[p]
+    return data
+
+
+def _set(data, path, value):
+    _get(data, path[:-1])[path[-1]] = value
+
+
+def _is_number(v):
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
+def _group_names(data):
+    g = data.get("groups")
+    return list(g) if isinstance(g, dict) else []
+
+
+def _domain_box(data):
+    try:
+        box = data["domain"]["box"]
+        return [[float(c) for c in box[0]], [float(c) for c in box[1]]]
+    except Exception:
+        return [[0, 0, 0], [1, 1, 1]]
+
+
+MUTATIONS = ["delete", "replace", "replace", "numeric", "numeric", "unknown_key", "empty",
+             "group", "group", "reference", "duplicate_item", "huge", "mode", "swap",
+             "material"]
+
+
+def mutate(draw, data, log):
+    """Apply one structural mutation to ``data`` (in place); log what."""
+    kind = draw(st.sampled_from(MUTATIONS))
+    paths = [p for p, _ in _paths(data)]
+    if not paths:
+        data["name"] = draw(_value())
+        log.append(("replace", ("name",)))
+        return
+    if kind == "delete":
+        path = draw(st.sampled_from(paths))
+        del _get(data, path[:-1])[path[-1]]
+    elif kind == "replace":
+        path = draw(st.sampled_from(paths))
+        _set(data, path, draw(_value()))
+    elif kind == "numeric":
+        nums = [p for p, v in _paths(data) if _is_number(v)]
+        if not nums:
+            return mutate(draw, data, log)
+        path = draw(st.sampled_from(nums))
+        old = _get(data, path)
+        how = draw(st.sampled_from(["factor", "number", "int"]))
+        if how == "factor":
+            f = draw(st.sampled_from(FACTORS))
+            try:
+                new = old * f
+            except OverflowError:
+                new = math.inf
+            _set(data, path, new)
+        elif how == "number":
+            _set(data, path, draw(st.sampled_from(NUMBERS)))
+        else:
+            _set(data, path, draw(st.integers(min_value=-3, max_value=10 ** 12)))
+    elif kind == "unknown_key":
+        dicts = [()] + [p for p, v in _paths(data) if isinstance(v, dict)]
+        path = draw(st.sampled_from(dicts))
+        key = draw(st.one_of(st.sampled_from(SCHEMA_KEYS), st.integers(-2, 2), st.none(),
+                             st.booleans()))
+        _get(data, path)[key] = draw(_value())
+        path = path + (key,)
+    elif kind == "empty":
+        conts = [p for p, v in _paths(data) if isinstance(v, (dict, list))]
+        path = draw(st.sampled_from(conts))
+        _set(data, path, draw(st.sampled_from([[], {}, None, "", [[], []]])))
+    elif kind == "group":
+        names = _group_names(data)
+        lo, hi = _domain_box(data)
+        name = draw(st.sampled_from(names + ["g_new", "all"]))
+        if not isinstance(data.get("groups"), dict):
+            data["groups"] = {}
+        groups = data["groups"]
+        what = draw(st.sampled_from(["outside", "whole", "overlap", "inverted", "point",
+                                     "flat", "corner", "material", "bad_material", "empty"]))
+        if what == "outside":
+            box = [[h + 1.0 for h in hi], [h + 2.0 for h in hi]]
+        elif what == "whole":
+            box = [lo, hi]
+        elif what == "overlap" and names:
+            box = copy.deepcopy(groups[draw(st.sampled_from(names))].get("box"))
+        elif what == "inverted":
+            box = [hi, lo]
+        elif what == "point":
+            box = [lo, lo]
+        elif what == "flat":
+            box = [[lo[0], lo[1], lo[2]], [hi[0], hi[1], lo[2]]]
+        elif what == "corner":
+            box = [[lo[0] - 1, lo[1] - 1, lo[2] - 1], [lo[0], lo[1], lo[2]]]
+        else:
+            box = None
+        g = groups.get(name)
+        if not isinstance(g, dict):
+            g = groups[name] = {"box": [lo, hi]}
+        if what == "material":
+            mats = data.get("materials")
+            g["material"] = draw(st.sampled_from(list(mats) if isinstance(mats, dict) and mats
+                                                 else ["steel"]))
+        elif what == "bad_material":
+            g["material"] = draw(st.sampled_from(["nope", "", "Steel", "all"]))
+        elif what == "empty":
+            groups[name] = draw(st.sampled_from([{}, None, [], {"material": "steel"}]))
+        else:
+            g["box"] = box
+        path = ("groups", name)
+    elif kind == "reference":
+        refs = [p for p, v in _paths(data) if p and p[-1] in ("group", "material")]
+        if not refs:
+            return mutate(draw, data, log)
+        path = draw(st.sampled_from(refs))
+        _set(data, path, draw(st.sampled_from(_group_names(data) + ["all", "nope", "", "steel"])))
+    elif kind == "duplicate_item":
+        lists = [p for p, v in _paths(data) if isinstance(v, list) and v]
+        if not lists:
+            return mutate(draw, data, log)
+        path = draw(st.sampled_from(lists))
+        lst = _get(data, path)
+        lst.append(copy.deepcopy(draw(st.sampled_from(lst))))
+    elif kind == "huge":
+        what = draw(st.sampled_from(["size", "divisions", "domain", "history", "list"]))
+        mesh = data.get("mesh")
+        if not isinstance(mesh, dict):
+            mesh = data["mesh"] = {"kind": "voronoi"}
+        if what == "size":
+            mesh["size"] = draw(st.sampled_from([1e-9, 1e-6, 1e-4, 1e-3, 1e3, 1e300, 5e-324]))
+            path = ("mesh", "size")
+        elif what == "divisions":
+            mesh["divisions"] = [draw(st.sampled_from([1, 2, 50, 1000, 10 ** 6, 2 ** 63, 10 ** 30]))
+                                 for _ in range(3)]
+            path = ("mesh", "divisions")
+        elif what == "domain":
+            f = draw(st.sampled_from([1e3, 1e6, 1e150, 1e200, 1e-150, 1e-200]))
+            lo, hi = _domain_box(data)
+            data["domain"] = {"box": [[c * f for c in lo], [c * f for c in hi]]}
+            path = ("domain", "box")
+        elif what == "history":
+            n = draw(st.sampled_from([1, 2, 1000]))
+            data.setdefault("loads", [])
+            if not isinstance(data["loads"], list):
+                data["loads"] = []
+            data["loads"].append({"group": "all", "force": [1, 0, 0],
+                                  "history": [[i * 1e-7, 1.0] for i in range(n)]})
+            path = ("loads",)
+        else:
+            n = draw(st.sampled_from([50, 500]))
+            data["cuts"] = [{"point": [0, 0, 0], "normal": [1, 0, 0],
+                             "within": [[-1, -1, -1], [1, 1, 1]]}] * n
+            path = ("cuts",)
+    elif kind == "mode":
+        s = data.get("solver")
+        if not isinstance(s, dict):
+            s = data["solver"] = {}
+        s["mode"] = draw(st.sampled_from(["dynamic", "static", "linear", "modal", "Dynamic", 3]))
+        if draw(st.booleans()):
+            for k in ("end_time", "load_steps", "tolerance", "max_iterations", "relaxation",
+                      "predictor", "modes", "dt_safety", "damping"):
+                s.pop(k, None)
+            if s["mode"] == "dynamic":
+                s["end_time"] = 1e-6
+        path = ("solver", "mode")
+    elif kind == "swap":
+        a, b = draw(st.sampled_from(paths)), draw(st.sampled_from(paths))
+        if a[:len(b)] == b or b[:len(a)] == a:
+            return mutate(draw, data, log)
+        va, vb = copy.deepcopy(_get(data, a)), copy.deepcopy(_get(data, b))
+        _set(data, a, vb)
+        _set(data, b, va)
+        path = a
+    else:  # material
+        mats = data.get("materials")
+        if not isinstance(mats, dict):
+            mats = data["materials"] = {}
+        what = draw(st.sampled_from(["drop_all", "add", "yield", "rupture", "rename"]))
+        if what == "drop_all":
+            mats.clear()
+        elif what == "add":
+            mats[draw(st.sampled_from(["m2", "steel", "all", ""]))] = draw(st.sampled_from([
+                {"density": 1, "young": 1, "poisson": 0},
+                {"density": 1e4, "young": 1e12, "poisson": 0.45},
+                {"density": 1e-300, "young": 1e300, "poisson": 0.0},
+                {"density": 1e300, "young": 1e-300, "poisson": 0.0}]))
+        elif what in ("yield", "rupture") and mats:
+            name = draw(st.sampled_from(list(mats)))
+            if isinstance(mats[name], dict):
+                mats[name][what] = draw(st.sampled_from([
+                    {"criterion": "tresca", "stress": 1.0},
+                    {"criterion": "normal", "stress": 1e300},
+                    {"criterion": "mohr_coulomb", "cohesion": 0, "friction_angle": 0},
+                    {"criterion": "mohr_coulomb", "stress": 1},
+                    {"strain": 1e-300}, {"strain": 10.0},
+                    {"fracture_energy": 1e-300, "tensile_strength": 1e300},
+                    {"fracture_energy": 1.0}, {}]))
+        elif what == "rename" and mats:
+            old = draw(st.sampled_from(list(mats)))
+            mats[old + "_x"] = mats.pop(old)
+        path = ("materials",)
+    log.append((kind, path))
+
+
+# Text-level mutations: applied to the YAML text (bytes) after dumping.
+BAD_BYTES = [b"\xff", b"\xfe", b"\xe9", b"\x80", b"\xc3\x28", b"\xed\xa0\x80", b"\xf8\x88\x80",
+             b"\xc0\xaf", b"\x00", b"\x1b", b"\x7f", b"\xef\xbb\xbf", b"\xe2\x80\xa8"]
+SYNTAX = ["[", "]", "{", "}", ":", ",", "- ", "&", "*", "!", "|", ">", "'", '"', "%", "@", "`",
+          "#", "? ", "\t", "\n", "  ", ": :", "\\", "---\n", "...\n", "<<: ", "&a ", "*a"]
+TAGS = ["!!python/object/apply:os.system ['touch {marker}']",
+        "!!python/object:os.system {{}}", "!!python/name:os.system", "!!python/tuple [1, 2]",
+        "!!binary aGVsbG8=", "!!set {{a, b}}", "!!omap [a: 1]", "!custom x", "!!float '3'",
+        "!!int '3'", "!!str 3", "!!bool 'x'", "!!timestamp 2001-12-14", "!!null ''",
+        "!<tag:example.com,2000:x> 1"]
+BOMB = ("a0: &a0 [x, x, x, x, x, x, x, x, x, x]\n"
+        + "".join(f"a{i}: &a{i} [" + ", ".join([f"*a{i - 1}"] * 10) + "]\n" for i in range(1, 9)))
+
+
+def text_mutate(draw, raw, marker, log):
+    kind = draw(st.sampled_from(["bytes", "syntax", "delete", "truncate", "tag", "bomb",
+                                 "dup_line", "tab", "encoding", "crlf", "bom", "empty",
+                                 "documents", "anchor", "tag", "bytes", "syntax"]))
+    pos = draw(st.integers(0, len(raw)))
+    if kind == "bytes":
+        ins = draw(st.one_of(st.sampled_from(BAD_BYTES), st.binary(min_size=1, max_size=4)))
+        raw = raw[:pos] + ins + raw[pos:]
+    elif kind == "syntax":
+        raw = raw[:pos] + draw(st.sampled_from(SYNTAX)).encode() + raw[pos:]
+    elif kind == "delete":
+        raw = raw[:pos] + raw[pos + draw(st.integers(1, 20)):]
+    elif kind == "truncate":
+        raw = raw[:pos]
+    elif kind == "tag":
+        values = [m.end() for m in re.finditer(rb": ", raw)]
+        at = draw(st.sampled_from(values)) if values else 0
+        tag = draw(st.sampled_from(TAGS)).format(marker=marker)
+        raw = raw[:at] + tag.encode() + b" " + raw[at:] if draw(st.booleans()) else \
+            raw[:at] + tag.encode() + b"\n" + raw[raw.find(b"\n", at) + 1 or len(raw):]
+    elif kind == "bomb":
+        raw = BOMB.encode() + raw if draw(st.booleans()) else \
+            raw + b"description: " + BOMB.replace("\n", ", ").encode() + b"\n"
+        raw = raw.replace(b"description: a0", b"description: {a0")  # flow mapping
+        if b"{a0" in raw:
+            raw = raw.rstrip(b", \n") + b"}\n"
+    elif kind == "dup_line":
+        lines = raw.split(b"\n")
+        i = draw(st.integers(0, max(0, len(lines) - 1)))
+        lines.insert(i, lines[i])
+        raw = b"\n".join(lines)
+    elif kind == "tab":
+        lines = raw.split(b"\n")
+        i = draw(st.integers(0, max(0, len(lines) - 1)))
+        lines[i] = b"\t" + lines[i]
+        raw = b"\n".join(lines)
+    elif kind == "encoding":
+        enc = draw(st.sampled_from(["utf-16", "utf-32", "latin-1", "cp1252"]))
+        raw = raw.decode("utf-8").replace("name: ", "name: é", 1).encode(enc, "replace")
+    elif kind == "crlf":
+        raw = raw.replace(b"\n", b"\r\n")
+    elif kind == "bom":
+        raw = b"\xef\xbb\xbf" + raw
+    elif kind == "empty":
+        raw = draw(st.sampled_from([b"", b"\n", b"   \n", b"# c\n", b"---\n", b"~\n", b"[]\n",
+                                    b"42\n", b"'x'\n", b"- a\n", b"null\n"]))
+    elif kind == "documents":
+        raw = raw + b"---\n" + raw
+    else:  # anchor: a legitimate alias, e.g. one material reused
+        raw = raw.replace(b"materials:\n", b"materials: &m\n", 1) + b"description: *m\n"
+    log.append(("text:" + kind, ()))
+    return raw
+
+
+# ------------------------------------------------------------------ driver ---
+
+MESSAGE = re.compile(r"^rbsm_dyn: (?P<file>.+?):(?P<line>\d+|\?): (?P<path>.+?): (?P<msg>.+)$")
+FAILED_RUN = re.compile(r"^rbsm_dyn: run failed: .*(step \d+|load step \d+)")
+
+
+def _split_path(path):
+    """``boundary[0].fix`` -> ['boundary', 0, 'fix'] (keys with dots stay whole
+    only when they exist in the data; good enough for the generated names)."""
+    out = []
+    for m in re.finditer(r"\[(-?\d+)\]|([^.\[\]]+)", path):
+        out.append(int(m.group(1)) if m.group(1) is not None else m.group(2))
+    return out
+
+
+def _resolves(data, parts):
+    """True when every part but the last exists in data; the last may be
+    missing (a required key) under a mapping that exists."""
+    node = data
+    for i, p in enumerate(parts):
+        last = i == len(parts) - 1
+        if isinstance(node, dict):
+            for k in (p, str(p)) + ((int(p),) if isinstance(p, str) and p.lstrip("-").isdigit()
+                                   else ()):
+                if k in node:
+                    node = node[k]
+                    break
+            else:
+                if isinstance(p, str) and p in ("true", "false", "null"):
+                    k = {"true": True, "false": False, "null": None}[p]
+                    if k in node:
+                        node = node[k]
+                        continue
+                return last
+        elif isinstance(node, list) and isinstance(p, int) and 0 <= p < len(node):
+            node = node[p]
+        else:
+            return False
+    return True
+
+
+class Hang(Exception):
+    pass
+
+
+@contextlib.contextmanager
+def time_limit(seconds):
+    def handler(signum, frame):
+        raise Hang(f"example still running after {seconds} s (a hang)")
+    old = signal.signal(signal.SIGALRM, handler)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, old)
+
+
+def cli(argv, cwd=None):
+    """(exit code, stdout, stderr) of main(argv) in this process; an
+    exception escaping main is a traceback the user would see: re-raised."""
+    out, err = io.StringIO(), io.StringIO()
+    old = os.getcwd()
+    try:
+        if cwd is not None:
+            os.chdir(cwd)
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            try:
+                code = main(argv)
+            except SystemExit as exc:   # argparse
+                code = exc.code
+    finally:
+        os.chdir(old)
+    return code, out.getvalue(), err.getvalue()
+
+
+def listing(root):
+    return sorted(str(p.relative_to(root)) for p in Path(root).rglob("*"))
+
+
+def check_bad(code, err, data, text_mutated, what):
+    """Exit 2 with one line naming file, line and a key of the file."""
+    assert code == 2, what
+    assert "Traceback" not in err, what
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, what
+    m = MESSAGE.match(lines[0])
+    assert m, what
+    assert m.group("file").endswith("case.yaml"), what
+    assert m.group("line") != "?", what
+    path = m.group("path")
+    if path == "<document>":
+        # only the document as a whole: YAML syntax, encoding, empty, not a mapping
+        assert text_mutated or data is None or not isinstance(data, dict) or not data, what
+        return
+    if data is not None and not text_mutated:
+        assert _resolves(data, _split_path(path)), what
+
+
+STATS = {"examples": 0, "exit2": 0, "ok": 0, "runs": 0, "infos": 0, "failed_runs": 0,
+         "text": 0}
+
+
+def fuzz_one(base, data, raw, log, run_kind, root, marker):
+    """Run one mutated case through the CLI entry and check the contract."""
+    text_mutated = any(k.startswith("text:") for k, _ in log)
+    what = f"mutations {log} on base {base!r}:\n{raw!r}"
+    work = Path(tempfile.mkdtemp(dir=root))
+    case = work / "case.yaml"
+    case.write_bytes(raw)
+    try:
+        with time_limit(EXAMPLE_TIME_LIMIT):
+            code, out, err = cli(["check", str(case)], cwd=work)
+            assert listing(work) == ["case.yaml"], what       # check writes nothing
+            if code != 0:
+                STATS["exit2"] += 1
+                check_bad(code, err, data, text_mutated, what + "\n" + err)
+                return
+            STATS["ok"] += 1
+            m = re.search(r"ok \((\d+) bodies", out)
+            assert m and 1 <= int(m.group(1)) <= 1.2 * FUZZ_MAX_CELLS + 1, what + out
+            if run_kind == "check":
+                return
+            if run_kind == "info":
+                STATS["infos"] += 1
+                code, out, err = cli(["info", str(case)], cwd=work)
+                assert code == 0 and "bodies" in out, what + err
+                assert listing(work) == ["case.yaml"], what
+                return
+            # a short run: with --out, or to output.file relative to the working
+            # directory when that stays inside the sandbox
+            STATS["runs"] += 1
+            loaded = rbsm_dyn.load_case(case)
+            target = (work / loaded.output.file).resolve()
+            args = [str(case), "--quiet", "--max-steps", "2"]
+            if run_kind == "run_out" or target.parent != work.resolve():
+                target = work / "asked.h5"
+                args += ["--out", str(target)]
+            code, out, err = cli(args, cwd=work)
+            assert "Traceback" not in err, what + err
+            if code == 2:
+                check_bad(code, err, data, text_mutated, what + "\n" + err)
+                assert listing(work) in (["case.yaml"], sorted(["case.yaml", target.name])), what
+                return
+            assert listing(work) == sorted(["case.yaml", target.name]), what + err
+            h = rbsm_dyn.open_history(target)
+            if code == 1:
+                STATS["failed_runs"] += 1
+                assert FAILED_RUN.match(err.strip()), what + err
+                assert h.status.startswith("failed"), what
+            else:
+                assert code == 0, what + err
+                assert h.status == "completed" and h.frames >= 1, what
+    finally:
+        assert not os.path.exists(marker), "a YAML tag ran a command: " + what
+        shutil.rmtree(work, ignore_errors=True)
+
+
+@st.composite
+def mutated_cases(draw):
+    base = draw(st.sampled_from(sorted(BASES)))
+    data = copy.deepcopy(BASE_DATA[base])
+    log = []
+    for _ in range(draw(st.integers(1, 3))):
+        mutate(draw, data, log)
+    n_text = draw(st.sampled_from([0, 0, 0, 1, 1, 2]))
+    return base, data, log, n_text
+
+
+@pytest.fixture
+def fuzz_root(tmp_path, monkeypatch):
+    monkeypatch.setattr(case_module, "MAX_CELLS", FUZZ_MAX_CELLS)
+    root = tmp_path / "fuzz"
+    root.mkdir()
+    return root
+
+
+def test_fuzzed_case_files_exit_2_naming_the_key_or_run(fuzz_root):
+    marker = str(fuzz_root / "pwned")
+    for k in STATS:
+        STATS[k] = 0
+
+    @settings(max_examples=EXAMPLES, derandomize=True, database=None, deadline=None,
+              phases=[Phase.explicit, Phase.generate, Phase.shrink],
+              suppress_health_check=list(HealthCheck), print_blob=False)
+    @given(st.data())
+    def fuzz(d):
+        STATS["examples"] += 1
+        base, data, log, n_text = d.draw(mutated_cases())
+        try:
+            raw = _dump(data).encode("utf-8")
+        except Exception:           # not representable (never for these values)
+            raw = BASES[base].encode()
+            data = BASE_DATA[base]
+        for _ in range(n_text):
+            raw = text_mutate(d.draw, raw, marker, log)
+        if n_text:
+            STATS["text"] += 1
+        run_kind = d.draw(st.sampled_from(["check", "check", "info", "run_out", "run_default"]))
+        fuzz_one(base, data, raw, log, run_kind, fuzz_root, marker)
+
+    fuzz()
+    print("fuzz statistics:", STATS)
+    assert STATS["examples"] >= 1000, STATS
+    assert STATS["exit2"] >= 300 and STATS["ok"] >= 100 and STATS["runs"] >= 20, STATS
+
+
+# ------------------------------------------------------------ regressions ---
+# Inputs the fuzzer found, each with the key its message must name.  Every
+# one goes through the same in-process CLI entry as the fuzz.
+
+def _edit(base, old, new):
+    text = BASES[base]
+    assert old in text, old
+    return text.replace(old, new, 1)
+
+
+REGRESSIONS = [
+    # nested aliases (a "billion laughs" bomb) expanded to 10^9 values: hang
+    ("alias bomb", (BOMB + BASES["modal_blocks"]).encode(), "a"),
+    ("alias bomb in a value", _edit("modal_blocks", "name: fz-modal\n", "name: fz-modal\n"
+                                    "description: {" + BOMB.replace("\n", ", ").rstrip(", ")
+                                    + "}\n").encode(), "description"),
+]
+
+
+@pytest.mark.parametrize("what, raw, key", REGRESSIONS, ids=[r[0] for r in REGRESSIONS])
+def test_regression(fuzz_root, what, raw, key):
+    work = fuzz_root / "r"
+    work.mkdir()
+    (work / "case.yaml").write_bytes(raw)
+    with time_limit(EXAMPLE_TIME_LIMIT):
+        code, out, err = cli(["check", str(work / "case.yaml")], cwd=work)
+    assert code == 2, out + err
+    m = MESSAGE.match(err.strip())
+    assert m and "\n" not in err.strip() and "Traceback" not in err, err
+    assert m.group("line") != "?", err
+    assert m.group("path").startswith(key), err
