@@ -356,3 +356,46 @@ def test_broken_roller_support_leaves_its_free_direction_free():
     f = st.spring_force.sum(axis=0)
     assert f[0] > 0                       # the contact is closed and pushes back
     assert abs(f[2]) <= 1e-9 * abs(f[0])
+
+
+# ------------------------------------------------------------- blow-up guard
+
+def test_a_run_just_past_the_limit_stops_at_the_first_output_with_runaway_energy(
+        tmp_path, monkeypatch, capsys):
+    """dt = 1.05 × 2/ω_max (Lanczos) on the blocks cantilever, tip cells at
+    −1 m/s, output every 20 steps: the unstable mode grows by ~1.4× a step
+    (|λ| of central differences at ω dt = 2.1), so K + U passes 10 × E0
+    long before a body reaches 10 c0.  The run must stop at the first output
+    past that (exit 1, 'diverged at step', the energy named) and leave a
+    readable history whose frames are all finite."""
+    import rbsm_dyn
+    from rbsm_dyn.__main__ import main
+    from rbsm_dyn.solvers import explicit
+    _, m = beam(MESHES["blocks"])
+    dt = 1.05 * 2.0 / modal.omega_max(m)
+    text = f"""
+    name: blowup
+    domain: {{box: {BEAM}}}
+    mesh: {MESHES["blocks"]}
+    materials:
+      m: {STEEL}
+    groups: {{tip: {{box: [[0.35, -1, -1], [1, 1, 1]]}}}}
+    boundary: [{{face: xmin, fix: all}}]
+    initial: [{{group: tip, velocity: [0, 0, -1.0]}}]
+    solver: {{mode: dynamic, end_time: {2000 * dt:.6e}, dt: {dt:.6e}}}
+    output: {{interval: {20 * dt:.6e}}}
+    """
+    path = tmp_path / "blowup.yaml"
+    path.write_text(textwrap.dedent(text), encoding="utf-8")
+    out = tmp_path / "blowup.h5"
+    # the solver refuses solver.dt above its estimate: take it as given here
+    monkeypatch.setattr(explicit, "choose_dt",
+                        lambda case, model: (case.solver.dt, model.stable_dt()))
+    code = main([str(path), "--out", str(out), "--quiet"])
+    err = capsys.readouterr().err
+    assert code == 1 and "diverged at step" in err and "energy" in err
+    step = int(err.split("diverged at step ")[1].split(",")[0])
+    assert step < 500                    # 10^16 growth at ≥ 1.4× a step: ~110 steps
+    h = rbsm_dyn.open_history(out)
+    assert h.status.startswith("failed")
+    assert np.all(np.isfinite(h.position)) and int(h.step[-1]) == step

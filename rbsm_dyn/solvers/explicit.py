@@ -23,6 +23,9 @@ from ..physics.inelastic import inelastic_spring_pass
 from ..physics.springs import elastic_spring_pass
 
 
+ENERGY_GUARD = 10.0   # K + U above this × (E0 + |W|) at an output step: diverged
+
+
 class RunFailed(RuntimeError):
     """A run that stopped early (divergence, no convergence)."""
 
@@ -153,8 +156,16 @@ def run(case, model, recorder, *, max_steps=None, progress=None, chunk_steps=Non
         return recorder.append(state, state.step, state.time, vel, ang, obs,
                                load_amplitude(model, state.time))
 
+    def energy_runaway(obs, e0):
+        """Kinetic + strain energy can only fall below E0 + W (damping,
+        plasticity and fracture dissipate): ten times what was put in means
+        an instability that the velocity guard has not caught yet."""
+        supplied = e0 + abs(obs["external_work"])
+        return supplied > 0.0 and obs["kinetic"] + obs["strain"] > ENERGY_GUARD * supplied
+
     t_wall = _time.perf_counter()
     obs = record()
+    e0 = obs["kinetic"] + obs["strain"]
     if progress:
         progress.start(n_total, dt)
     while state.step < n_total:
@@ -172,6 +183,15 @@ def run(case, model, recorder, *, max_steps=None, progress=None, chunk_steps=Non
             raise RunFailed(msg)
         if state.step % out_every == 0 or state.step == n_total:
             obs = record()
+            if energy_runaway(obs, e0):
+                msg = (f"diverged at step {state.step}, t = {state.time:.6g} s "
+                       f"(dt = {dt:.4g} s, stable estimate {est:.4g} s): kinetic + strain "
+                       f"energy {obs['kinetic'] + obs['strain']:.4g} J is more than "
+                       f"{ENERGY_GUARD:g}× the initial energy plus the external work "
+                       f"({e0 + abs(obs['external_work']):.4g} J); reduce solver.dt_safety "
+                       "or check the case")
+                recorder.fail(msg)
+                raise RunFailed(msg)
         if progress:
             progress.update(state.step, state.time, obs.get("kinetic", 0.0))
     wall = _time.perf_counter() - t_wall
