@@ -37,7 +37,6 @@ Clean-up
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial import Voronoi, cKDTree
 
 from ._core import Mesh, _gather, assemble, check_box
 from .spring_points import polygon_properties
@@ -46,6 +45,13 @@ __all__ = ["voronoi_mesh", "voronoi_seeds"]
 
 # seeds closer than _REACH * size to a side are mirrored across it (first try)
 _REACH = 3.0
+
+
+def _kdtree():
+    """scipy.spatial.cKDTree, imported on first use (scipy.spatial costs about
+    0.4 s to import: a block-mesh run should not pay it at start-up)."""
+    from scipy.spatial import cKDTree
+    return cKDTree
 
 
 def _morton_order(points, lo, h):
@@ -82,9 +88,9 @@ def voronoi_seeds(box, size, seed=0, min_spacing=0.5, n=None):
         cand = rng.uniform(lo, hi, size=(max(2 * need, 64), 3))
         if r > 0:
             if len(acc):
-                d, _ = cKDTree(acc).query(cand, k=1, distance_upper_bound=r)
+                d, _ = _kdtree()(acc).query(cand, k=1, distance_upper_bound=r)
                 cand = cand[d >= r]
-            pairs = cKDTree(cand).query_pairs(r, output_type="ndarray")
+            pairs = _kdtree()(cand).query_pairs(r, output_type="ndarray")
             if len(pairs):
                 keep = np.ones(len(cand), dtype=bool)
                 keep[pairs.max(axis=1)] = False  # drop the later of each close pair
@@ -121,6 +127,7 @@ def _tessellate(seeds, box, size, reach):
     src = np.concatenate(src)
     side = np.concatenate(side)
     # Qbb Qc Qz is scipy's default; tiny problems need no special options
+    from scipy.spatial import Voronoi  # imported here: block meshes never pay for it
     vor = Voronoi(pts)
     rp = vor.ridge_points.astype(np.int64)
     p, q = rp.min(axis=1), rp.max(axis=1)
@@ -203,7 +210,7 @@ def _build(box, size, seeds, V, vid, rid, cnt, kp, kq, kside):
     tol = 1e-10 * size
     used, inv = np.unique(vid, return_inverse=True)
     Vu = V[used]
-    pairs = cKDTree(Vu).query_pairs(tol, output_type="ndarray")
+    pairs = _kdtree()(Vu).query_pairs(tol, output_type="ndarray")
     if len(pairs):
         from scipy.sparse import coo_matrix
         from scipy.sparse.csgraph import connected_components
