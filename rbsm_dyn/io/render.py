@@ -48,11 +48,13 @@ class RendererUnavailable(RuntimeError):
     """No OpenGL implementation for off-screen rendering."""
 
 
-def check_renderer(find_library=ctypes.util.find_library, environ=os.environ) -> str:
+def check_renderer(find_library=None, environ=None) -> str:
     """Choose VTK's OpenGL window for off-screen use and return its name
-    ("x", "egl" or "osmesa"); raise :class:`RendererUnavailable` with what
-    to install when there is none.  Sets VTK_DEFAULT_OPENGL_WINDOW unless
-    the user did."""
+    ("x", "egl" or "osmesa"; the user's VTK_DEFAULT_OPENGL_WINDOW if set);
+    raise :class:`RendererUnavailable` with what to install when there is
+    none.  Sets VTK_DEFAULT_OPENGL_WINDOW unless the user did."""
+    find_library = find_library or ctypes.util.find_library
+    environ = os.environ if environ is None else environ
     if environ.get("VTK_DEFAULT_OPENGL_WINDOW"):
         return environ["VTK_DEFAULT_OPENGL_WINDOW"]
     if environ.get("DISPLAY") or environ.get("WAYLAND_DISPLAY"):
@@ -73,8 +75,8 @@ def check_renderer(find_library=ctypes.util.find_library, environ=os.environ) ->
 def auto_scale(max_disp: float, size: float, target: float = 0.04) -> float:
     """Magnification that shows the largest displacement as about
     ``target`` × size, rounded down to 1, 2 or 5 × 10^n; 1 if the
-    displacements are already that large (or zero)."""
-    if not (max_disp > 0) or not (size > 0):
+    displacements are already that large, or round-off (below 1e-9 × size)."""
+    if not (max_disp > 1e-9 * size) or not (size > 0):
         return 1.0
     raw = target * size / max_disp
     if raw <= 1.0:
