@@ -22,6 +22,7 @@ from __future__ import annotations
 import datetime
 import math
 import re
+import warnings
 from pathlib import Path
 from typing import Annotated, Any, Literal, Optional, Union
 
@@ -30,19 +31,22 @@ from pydantic import (BaseModel, BeforeValidator, ConfigDict, Discriminator,
 from pydantic_core import PydanticCustomError
 from ruamel.yaml import YAML
 from ruamel.yaml.comments import CommentedMap, CommentedSeq, TaggedScalar
+from ruamel.yaml.constructor import RoundTripConstructor
 from ruamel.yaml.error import MarkedYAMLError, YAMLError
+from ruamel.yaml.nodes import MappingNode, ScalarNode, SequenceNode
 
 __all__ = [
     "CaseError", "load_case", "load_case_text", "Case", "Domain", "Mesh",
     "Material", "Yield", "Rupture", "Group", "FaceSupport", "GroupFix",
     "GroupVelocity", "GroupDisplacement", "InitialVelocity", "GroupLoad",
     "Gravity", "Cut", "Damping", "Solver", "Probe", "Output", "DIMENSIONS",
-    "MAX_CELLS",
+    "MAX_CELLS", "NUMBER_LIMIT",
 ]
 
 KeyPath = tuple  # a key path: str keys and int list indices
 
 MAX_CELLS = 5e6          # a mesh with more cells than this is refused
+NUMBER_LIMIT = 1e30      # every number is 0 or of magnitude in [1/limit, limit]
 DOCUMENT = "<document>"  # key path shown for errors about the whole file
 
 
@@ -55,7 +59,10 @@ def format_path(path: KeyPath) -> str:
         if isinstance(part, int) and not isinstance(part, bool):
             out += f"[{part}]"
         else:
-            out += ("." if out else "") + str(part)
+            text = str(part)
+            if not text or not text.isprintable():   # '', tabs, line breaks...
+                text = repr(text)
+            out += ("." if out else "") + text
     return out or DOCUMENT
 
 
@@ -492,30 +499,86 @@ def _nearest_line(lines: dict, path: KeyPath) -> Optional[int]:
 #: (nested aliases that expand to 10⁹ values from a few lines of text).
 MAX_ALIAS_VALUES = 100_000
 
-_NON_CORE = {"CommentedSet": "!!set", "CommentedKeySeq": "a list as a key",
-             "CommentedKeyMap": "a mapping as a key"}
+_NON_CORE = {"CommentedSet": "!!set"}
 
 
-def _plain(node: Any, path: KeyPath, lines: dict, file: str,
-           _alias: Optional[dict] = None) -> Any:
-    """Copy the ruamel tree into plain Python, recording lines in ``lines``.
+class _NodeProblem(Exception):
+    """Raised by the node check: (line, key path, message)."""
 
-    A list or mapping met a second time is an alias; the values copied under
-    aliases are counted and refused beyond ``MAX_ALIAS_VALUES``."""
-    if _alias is None:
-        _alias = {"seen": set(), "count": 0, "inside": False}
 
+def _check_nodes(root, paths: dict) -> None:
+    """Before anything is constructed: keys are scalars, no alias refers to
+    a collection that contains it, and aliases add at most
+    ``MAX_ALIAS_VALUES`` values (sizes memoised per node: linear time).
+    ``paths`` gets the key path of every node (id -> path)."""
+    size: dict[int, int] = {}
+    active: set[int] = set()
+    stack = [(root, (), False)]
+    while stack:                      # iterative post-order (no recursion limit)
+        node, path, done = stack.pop()
+        paths.setdefault(id(node), path)
+        if not isinstance(node, (MappingNode, SequenceNode)):
+            continue
+        key = id(node)
+        line = node.start_mark.line + 1
+        if done:
+            active.discard(key)
+            kids = (node.value if isinstance(node, SequenceNode)
+                    else [n for pair in node.value for n in pair])
+            size[key] = 1 + sum(size.get(id(k), 1) for k in kids)
+            # the collections completed so far include all of this one's
+            if size[key] - len(size) > MAX_ALIAS_VALUES:
+                raise _NodeProblem(line, path, "aliases (*name) expand to more than "
+                                   f"{MAX_ALIAS_VALUES} values (nested aliases: an alias bomb?)")
+            continue
+        if key in size:
+            continue
+        if key in active:
+            raise _NodeProblem(line, path, "an alias refers to a list or mapping that contains it")
+        active.add(key)
+        stack.append((node, path, True))
+        if isinstance(node, MappingNode):
+            kids = []
+            for k, v in node.value:
+                if not isinstance(k, ScalarNode):
+                    what = "a list" if isinstance(k, SequenceNode) else "a mapping"
+                    raise _NodeProblem(k.start_mark.line + 1, path,
+                                       f"keys must be plain names (got {what} as a key)")
+                kids.append((v, path + (str(k.value),), False))
+        else:
+            kids = [(v, path + (i,), False) for i, v in enumerate(node.value)]
+        stack.extend(reversed(kids))      # visited in document order
+
+
+class _CheckedConstructor(RoundTripConstructor):
+    """The round-trip constructor, after ``_check_nodes`` on the node tree; a
+    value its tag cannot make (``!!bool 'x'``, ``!!int 1.5``) is a _NodeProblem."""
+
+    def construct_document(self, node):
+        self._node_paths: dict = {}
+        _check_nodes(node, self._node_paths)
+        return super().construct_document(node)
+
+    def construct_object(self, node, deep=False):
+        try:
+            return super().construct_object(node, deep=deep)
+        except (YAMLError, _NodeProblem, RecursionError):
+            raise
+        except Exception:
+            tag = str(getattr(node.tag, "value", node.tag)).replace("tag:yaml.org,2002:", "!!")
+            value = node.value if isinstance(node, ScalarNode) else "this value"
+            raise _NodeProblem(node.start_mark.line + 1,
+                               getattr(self, "_node_paths", {}).get(id(node), ()),
+                               f"cannot read {value!r} as {tag}") from None
+
+
+def _plain(node: Any, path: KeyPath, lines: dict, file: str) -> Any:
+    """Copy the ruamel tree into plain Python, recording lines in ``lines``."""
     def bad_tag(tag: str) -> CaseError:
         tag = tag.replace("tag:yaml.org,2002:", "!!")
         return CaseError(file, _nearest_line(lines, path), path,
                          f"tag {tag} is not allowed (plain YAML values only)")
 
-    if _alias["inside"]:
-        _alias["count"] += 1
-        if _alias["count"] > MAX_ALIAS_VALUES:
-            raise CaseError(file, _nearest_line(lines, path), path,
-                            f"aliases expand to more than {MAX_ALIAS_VALUES} values "
-                            "(nested aliases: an alias bomb?)")
     if isinstance(node, TaggedScalar):
         if node.tag.value == "tag:yaml.org,2002:str":
             return str(node.value)
@@ -524,15 +587,23 @@ def _plain(node: Any, path: KeyPath, lines: dict, file: str,
     if tag is not None and tag not in _CORE_TAGS and isinstance(
             node, (CommentedMap, CommentedSeq)):
         raise bad_tag(tag)
-    if isinstance(node, (dict, list)):
-        outer = _alias["inside"]
-        if id(node) in _alias["seen"]:
-            _alias["inside"] = True
-        _alias["seen"].add(id(node))
-        try:
-            return _plain_container(node, path, lines, file, _alias)
-        finally:
-            _alias["inside"] = outer
+    if isinstance(node, dict):
+        out = {}
+        for key in node:
+            k = _plain(key, path, lines, file)
+            try:
+                lines[path + (k,)] = node.lc.key(key)[0] + 1
+            except (KeyError, AttributeError, TypeError):
+                pass  # merged (<<) keys have no line of their own
+            out[k] = _plain(node[key], path + (k,), lines, file)
+        return out
+    if isinstance(node, list):
+        for i in range(len(node)):
+            try:
+                lines[path + (i,)] = node.lc.item(i)[0] + 1
+            except (KeyError, AttributeError, TypeError):
+                pass
+        return [_plain(v, path + (i,), lines, file) for i, v in enumerate(node)]
     if isinstance(node, bool) or type(node).__name__ == "ScalarBoolean":
         return bool(node)
     if isinstance(node, int):
@@ -549,35 +620,17 @@ def _plain(node: Any, path: KeyPath, lines: dict, file: str,
                   else _NON_CORE.get(type(node).__name__, type(node).__name__))
 
 
-def _plain_container(node, path, lines, file, alias):
-    if isinstance(node, dict):
-        out = {}
-        for key in node:
-            if isinstance(key, (dict, list, tuple, set)):
-                raise CaseError(file, _nearest_line(lines, path), path,
-                                "keys must be plain names (got "
-                                f"{_NON_CORE.get(type(key).__name__, 'a collection')})")
-            k = _plain(key, path, lines, file, alias)
-            try:
-                lines[path + (k,)] = node.lc.key(key)[0] + 1
-            except (KeyError, AttributeError, TypeError):
-                pass  # merged (<<) keys have no line of their own
-            out[k] = _plain(node[key], path + (k,), lines, file, alias)
-        return out
-    for i in range(len(node)):
-        try:
-            lines[path + (i,)] = node.lc.item(i)[0] + 1
-        except (KeyError, AttributeError, TypeError):
-            pass
-    return [_plain(v, path + (i,), lines, file, alias) for i, v in enumerate(node)]
-
-
 def _parse(text: str, file: str) -> tuple[dict, dict]:
     """YAML text -> (plain dict, {key path: line})."""
     yaml = YAML(typ="rt")
+    yaml.Constructor = _CheckedConstructor
     yaml.allow_duplicate_keys = False
     try:
-        root = yaml.load(text)
+        with warnings.catch_warnings():   # e.g. a reused anchor: YAML allows it
+            warnings.simplefilter("ignore")
+            root = yaml.load(text)
+    except _NodeProblem as ex:
+        raise CaseError(file, *ex.args) from None
     except MarkedYAMLError as ex:
         mark = ex.problem_mark or ex.context_mark
         line = mark.line + 1 if mark is not None else None
@@ -593,6 +646,8 @@ def _parse(text: str, file: str) -> tuple[dict, dict]:
             line = text[:position].count("\n") + 1
         msg = str(ex).splitlines()[0] if str(ex) else type(ex).__name__
         raise CaseError(file, line, (), f"YAML error: {msg}") from None
+    except RecursionError:
+        raise CaseError(file, 1, (), "YAML error: lists or mappings nested too deeply") from None
     if root is None:
         raise CaseError(file, 1, (), "the case file is empty")
     lines: dict = {}
@@ -652,9 +707,33 @@ def _schema_errors(ex: ValidationError, file: str, lines: dict) -> list[CaseErro
     return out
 
 
+def _numbers(node: Any, path: KeyPath):
+    """(key path, value) of every number in a validated model, YAML key names."""
+    if isinstance(node, BaseModel):
+        for name, f in type(node).model_fields.items():
+            yield from _numbers(getattr(node, name), path + (f.alias or name,))
+    elif isinstance(node, list):
+        for i, v in enumerate(node):
+            yield from _numbers(v, path + (i,))
+    elif isinstance(node, dict):
+        for k, v in node.items():
+            yield from _numbers(v, path + (k,))
+    elif isinstance(node, (int, float)) and not isinstance(node, bool):
+        yield path, node
+
+
 def _check(case: Case) -> None:
     """Rules across fields.  Raises the first CaseError found."""
     err = case.error
+
+    # Numbers far outside any physical range are unit mistakes, and their
+    # products (k/m, end_time/dt, h^5 rho) would overflow or underflow.
+    for path, x in _numbers(case, ()):
+        if path == ("mesh", "seed"):
+            continue
+        if x != 0 and not (1 / NUMBER_LIMIT <= abs(x) <= NUMBER_LIMIT):
+            raise err(path, f"must be 0 or of magnitude between {1 / NUMBER_LIMIT:g} and "
+                            f"{NUMBER_LIMIT:g} (got {_show(x)}; check the units)")
     groups = set(case.groups) | {"all"}
 
     def check_box(box, path, strict):
