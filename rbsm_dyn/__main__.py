@@ -112,7 +112,37 @@ def main(argv=None):
         return 0
     if command == "info":
         return _info(case, model, threads or numba.get_num_threads())
+    problem = _output_problem(case, args, path)
+    if problem:
+        print(f"rbsm_dyn: {problem}", file=sys.stderr)
+        return 2
     return _run(case, model, args, threads or numba.get_num_threads())
+
+
+def _output_problem(case, args, case_path):
+    """Why the history file cannot be written where asked (None if it can):
+    its directory is missing or not writable, it is a directory, or it is
+    the case file itself (which the run would overwrite)."""
+    if getattr(args, "restart", None):
+        return None                     # appends to an existing history
+    out = args.out or case.output.file
+
+    def where(message):
+        return f"--out {out}: {message}" if args.out else \
+            str(case.error(("output", "file"), f"{message} (got {out!r})"))
+
+    if "\0" in out:
+        return where("a file name cannot contain a NUL character")
+    folder = os.path.dirname(os.path.abspath(out))
+    if os.path.isdir(out):
+        return where("is a directory")
+    if not os.path.isdir(folder):
+        return where(f"no such directory {folder}")
+    if not os.access(folder, os.W_OK):
+        return where(f"directory {folder} is not writable")
+    if os.path.exists(out) and os.path.samefile(out, case_path):
+        return where("is the case file itself (the run would overwrite it)")
+    return None
 
 
 def _info(case, model, threads):
