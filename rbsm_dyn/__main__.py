@@ -27,6 +27,9 @@ def _parser():
     p.add_argument("--max-steps", type=int, default=None,
                    help="stop after this many steps (iterations in static mode)")
     p.add_argument("--threads", type=int, default=None, help="Numba threads")
+    p.add_argument("--restart", metavar="RUN.h5",
+                   help="continue the run of this history file from its last checkpoint "
+                   "(dynamic mode; frames are appended to RUN.h5)")
     return p
 
 
@@ -183,16 +186,33 @@ EXTRA_OBSERVABLES = {"static": {"residual": "1"}, "linear": {"residual": "1"},
 
 def _run(case, model, args, threads):
     from .case import CaseError
-    from .solvers import explicit, linear, modal, relax
+    from .solvers import checkpoint, explicit, linear, modal, relax
     from .solvers.output import Recorder
     out = args.out or case.output.file
     extra = EXTRA_OBSERVABLES.get(case.solver.mode, {})
-    rec = Recorder(case, model, out, threads=threads, extra_observables=extra)
+    restart = None
+    if args.restart:
+        # continue RUN.h5 from its checkpoint (solvers/checkpoint.py)
+        if args.out and os.path.abspath(args.out) != os.path.abspath(args.restart):
+            print("rbsm_dyn: --restart appends to its own file; leave out --out",
+                  file=sys.stderr)
+            return 2
+        out = args.restart
+        try:
+            restart = checkpoint.load_for_restart(case, model, out)
+            rec = Recorder.resume(case, model, out, restart[1]["frames"],
+                                  extra_observables=extra)
+        except (checkpoint.RestartError, ValueError, OSError) as exc:
+            print(f"rbsm_dyn: {exc}", file=sys.stderr)
+            return 2
+    else:
+        rec = Recorder(case, model, out, threads=threads, extra_observables=extra)
     progress = Progress(not args.quiet and sys.stderr.isatty() or (not args.quiet and os.environ.get("RBSM_PROGRESS")))
     t0 = time.perf_counter()
     try:
         if case.solver.mode == "dynamic":
-            res = explicit.run(case, model, rec, max_steps=args.max_steps, progress=progress)
+            res = explicit.run(case, model, rec, max_steps=args.max_steps, progress=progress,
+                               restart=restart)
             summary = (f"{res['steps']} steps, dt = {res['dt']:.4g} s "
                        f"(estimate {res['dt_estimate']:.4g} s)")
         elif case.solver.mode == "static":
@@ -218,6 +238,14 @@ def _run(case, model, args, threads):
         rec.close()
         print(f"rbsm_dyn: {exc}", file=sys.stderr)
         return 2
+    except checkpoint.Interrupted as exc:
+        progress.close()
+        rec.fail(f"{exc}; continue with --restart {out}")
+        rec.close()
+        cpath = args.case if args.command_or_case == "run" else args.command_or_case
+        print(f"rbsm_dyn: {exc} in {out}; continue with: python -m rbsm_dyn {cpath} "
+              f"--restart {out}", file=sys.stderr)
+        return exc.exit_code
     except KeyboardInterrupt:
         progress.close()
         rec.fail("interrupted")

@@ -315,6 +315,7 @@ FieldName = Literal["position", "orientation", "velocity", "angular_velocity",
 class Output(_Node):
     file: Optional[str] = None              # default <name>.h5
     interval: Optional[float] = Field(default=None, gt=0)  # default end_time/100
+    checkpoint_interval: Optional[float] = Field(default=None, gt=0)  # s; solvers/checkpoint.py
     fields: list[FieldName] = ["position", "orientation"]
     probes: dict[str, Probe] = {}
 
@@ -441,6 +442,7 @@ DIMENSIONS: dict[tuple[type, str], str] = {
     (Solver, "end_time"): "time",
     (Solver, "dt"): "time",
     (Output, "interval"): "time",
+    (Output, "checkpoint_interval"): "time",
 }
 
 #: SI value = factor * value in the case's units.
@@ -885,6 +887,8 @@ def _check(case: Case) -> None:
         if out.interval > s.end_time:
             raise err(("output", "interval"), f"must be <= solver.end_time "
                       f"(got {_show(out.interval)} > {_show(s.end_time)})")
+    if out.checkpoint_interval is not None and s.mode != "dynamic":
+        raise err(("output", "checkpoint_interval"), "used only in mode dynamic")
     for j, f in enumerate(out.fields):
         if f in out.fields[:j]:
             raise err(("output", "fields", j), f"{f} listed twice")

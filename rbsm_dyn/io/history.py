@@ -51,7 +51,7 @@ __all__ = ["HistoryWriter", "History", "open_history", "frame_indices", "history
 
 H5MD_VERSION = (1, 1)
 _UNITS_MODULE_VERSION = (1, 0)
-_RESERVED = ("h5md", "parameters")
+_RESERVED = ("h5md", "parameters", "checkpoint")   # /checkpoint: solvers/checkpoint.py
 _CHUNK_TARGET_BYTES = 1 << 20      # about 1 MiB of value data per chunk ...
 _CHUNK_MAX_FRAMES = 1024           # ... but no more than this many frames
 _STEP_TIME_CHUNK = 1024            # frames per chunk of step/time (8 KiB)
@@ -166,6 +166,64 @@ class HistoryWriter:
         except BaseException:
             self._f.close()
             raise
+
+    @classmethod
+    def reopen(cls, path, *, frames: int, swmr: bool = True) -> "HistoryWriter":
+        """Open an existing history to append to it (restart,
+        solvers/checkpoint.py): every series is cut back to ``frames``
+        complete frames (rows after them -- frames written after the
+        checkpoint, or half-written by a kill -- are dropped), ``status``
+        becomes "running" again and SWMR starts.  A file left by a killed
+        SWMR writer has its superblock "open for write" flags cleared first
+        (what ``h5clear -s`` does)."""
+        self = cls.__new__(cls)
+        self.path = str(path)
+        self._swmr = bool(swmr)
+        self._series = {}
+        self._started = False
+        self._status = "running"
+        try:
+            self._f = h5py.File(self.path, "r+", libver="latest", rdcc_nbytes=4 << 20)
+        except OSError as exc:
+            if "already open" not in str(exc):
+                raise
+            clear_status_flags(self.path)
+            self._f = h5py.File(self.path, "r+", libver="latest", rdcc_nbytes=4 << 20)
+        try:
+            f = self._f
+            n_file = int(f.attrs.get("frames", 0))
+            if not 0 <= int(frames) <= n_file:
+                raise ValueError(f"{self.path}: cannot keep {frames} frames, the file has {n_file}")
+            found = {}
+
+            def visit(name, obj):
+                if name.split("/", 1)[0] in _RESERVED or not isinstance(obj, h5py.Group):
+                    return
+                if all(isinstance(obj.get(k), h5py.Dataset) for k in ("value", "step", "time")):
+                    found[name] = obj
+
+            f.visititems(visit)
+            for p, g in found.items():
+                v = g["value"]
+                self._series[p] = _Series(p, tuple(v.shape[1:]), v.dtype, v, g["step"], g["time"])
+                for ds in (g["step"], g["time"], v):
+                    if ds.shape[0] != int(frames):
+                        ds.resize(int(frames), axis=0)
+            f.attrs.modify("frames", np.int64(frames))
+            f.attrs.modify("status", self._status)
+            f.flush()
+            self._frames = int(frames)
+        except BaseException:
+            self._f.close()
+            raise
+        self.start()
+        return self
+
+    @property
+    def h5file(self) -> h5py.File:
+        """The open h5py.File, for the groups reserved to rbsm_dyn itself
+        (/checkpoint: solvers/checkpoint.py)."""
+        return self._file()
 
     # ------------------------------------------------------------------ state
     @property
@@ -348,6 +406,69 @@ class HistoryWriter:
                 self.mark_failed(f"{exc_type.__name__}: {exc}")
         finally:
             self.close()
+
+
+def _lookup3(data: bytes, initval: int = 0) -> int:
+    """Bob Jenkins' lookup3 hashlittle, the checksum of HDF5 metadata
+    (H5_checksum_lookup3)."""
+    M = 0xFFFFFFFF
+
+    def rot(x, k):
+        return ((x << k) | (x >> (32 - k))) & M
+
+    n = len(data)
+    a = b = c = (0xDEADBEEF + n + initval) & M
+    i = 0
+    while n > 12:
+        a = (a + int.from_bytes(data[i:i + 4], "little")) & M
+        b = (b + int.from_bytes(data[i + 4:i + 8], "little")) & M
+        c = (c + int.from_bytes(data[i + 8:i + 12], "little")) & M
+        a = (a - c) & M; a ^= rot(c, 4); c = (c + b) & M      # noqa: E702
+        b = (b - a) & M; b ^= rot(a, 6); a = (a + c) & M      # noqa: E702
+        c = (c - b) & M; c ^= rot(b, 8); b = (b + a) & M      # noqa: E702
+        a = (a - c) & M; a ^= rot(c, 16); c = (c + b) & M     # noqa: E702
+        b = (b - a) & M; b ^= rot(a, 19); a = (a + c) & M     # noqa: E702
+        c = (c - b) & M; c ^= rot(b, 4); b = (b + a) & M      # noqa: E702
+        n -= 12
+        i += 12
+    if n == 0:
+        return c
+    tail = bytes(data[i:i + n]) + bytes(12 - n)
+    a = (a + int.from_bytes(tail[0:4], "little")) & M
+    b = (b + int.from_bytes(tail[4:8], "little")) & M
+    c = (c + int.from_bytes(tail[8:12], "little")) & M
+    c ^= b; c = (c - rot(b, 14)) & M      # noqa: E702
+    a ^= c; a = (a - rot(c, 11)) & M      # noqa: E702
+    b ^= a; b = (b - rot(a, 25)) & M      # noqa: E702
+    c ^= b; c = (c - rot(b, 16)) & M      # noqa: E702
+    a ^= c; a = (a - rot(c, 4)) & M       # noqa: E702
+    b ^= a; b = (b - rot(a, 14)) & M      # noqa: E702
+    c ^= b; c = (c - rot(b, 24)) & M      # noqa: E702
+    return c
+
+
+_SIGNATURE = b"\x89HDF\r\n\x1a\n"
+
+
+def clear_status_flags(path) -> None:
+    """Clear the "file is open for write / SWMR write" flags that a killed
+    writer leaves in the superblock (version 2 or 3, at offset 0: what this
+    writer makes), as ``h5clear -s`` does, so the file can be opened for
+    writing again.  Raises OSError for another superblock."""
+    with open(path, "r+b") as fh:
+        head = bytearray(fh.read(12))
+        if head[:8] != bytes(_SIGNATURE) or head[8] not in (2, 3):
+            raise OSError(f"{path}: not an HDF5 file with a version 2/3 superblock at offset 0")
+        size = 12 + 4 * head[9]               # signature .. root object header address
+        fh.seek(0)
+        block = bytearray(fh.read(size + 4))
+        if int.from_bytes(block[size:size + 4], "little") != _lookup3(bytes(block[:size])):
+            raise OSError(f"{path}: superblock checksum mismatch")
+        block[11] = 0
+        block[size:size + 4] = _lookup3(bytes(block[:size])).to_bytes(4, "little")
+        fh.seek(0)
+        fh.write(block)
+        fh.flush()
 
 
 # ====================================================================== reader

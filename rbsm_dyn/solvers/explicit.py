@@ -21,6 +21,7 @@ from ..model import apply_initial, new_state
 from ..physics.integrate import run_dynamic, synchronized_momenta
 from ..physics.inelastic import inelastic_spring_pass
 from ..physics.springs import elastic_spring_pass
+from .checkpoint import Checkpointer, Interrupted, SignalGuard
 
 
 ENERGY_GUARD = 10.0   # K + U above this × (E0 + |W|) at an output step: diverged
@@ -124,15 +125,25 @@ def external_work(model, state, w_steps):
     return float(np.sum(w_steps))
 
 
-def run(case, model, recorder, *, max_steps=None, progress=None, chunk_steps=None):
+def run(case, model, recorder, *, max_steps=None, progress=None, chunk_steps=None,
+        restart=None):
     """Run a dynamic case, writing frames through `recorder`.
 
+    restart: (State, checkpoint data) from checkpoint.load_for_restart: go on
+    from that state (its frames are in the recorder's file already).
+    Checkpoints (solvers/checkpoint.py) at output.checkpoint_interval, at the
+    end, and on SIGINT/SIGTERM (then checkpoint.Interrupted is raised).
     Returns a dict of figures (steps, dt, wall time).  Raises RunFailed."""
-    state = new_state(model)
-    dt, est = choose_dt(case, model)
-    state.dt = dt
-    apply_initial(case, model, state)
-    start_half_step(model, state)
+    if restart is None:
+        state = new_state(model)
+        dt, est = choose_dt(case, model)
+        state.dt = dt
+        apply_initial(case, model, state)
+        start_half_step(model, state)
+    else:
+        # the leapfrog's half-step state as saved: no start_half_step again
+        state = restart[0]
+        dt, est = state.dt, model.stable_dt()
     alpha = float(getattr(getattr(case.solver, "damping", None), "alpha", 0.0) or 0.0)
     end_time = case.solver.end_time
     n_total = int(np.ceil(end_time / dt - 1e-9))
@@ -164,8 +175,25 @@ def run(case, model, recorder, *, max_steps=None, progress=None, chunk_steps=Non
         return supplied > 0.0 and obs["kinetic"] + obs["strain"] > ENERGY_GUARD * supplied
 
     t_wall = _time.perf_counter()
-    obs = record()
-    e0 = obs["kinetic"] + obs["strain"]
+    ckpt = Checkpointer(recorder, case)
+    with SignalGuard() as guard:
+        if restart is None:
+            obs = record()
+            e0 = obs["kinetic"] + obs["strain"]
+        else:
+            obs = {}
+            e0 = float(restart[1]["e0"])
+        ckpt.mark(state)
+        _loop(model, state, recorder, progress, record, energy_runaway, ckpt, guard, e0,
+              n_total, out_every, chunk_steps, alpha, v_limit, dt, est)
+        ckpt.write(state, e0)
+    wall = _time.perf_counter() - t_wall
+    return dict(steps=state.step, dt=dt, dt_estimate=est, wall_time=wall, state=state)
+
+
+def _loop(model, state, recorder, progress, record, energy_runaway, ckpt, guard, e0,
+          n_total, out_every, chunk_steps, alpha, v_limit, dt, est):
+    obs = {}
     if progress:
         progress.start(n_total, dt)
     while state.step < n_total:
@@ -192,7 +220,10 @@ def run(case, model, recorder, *, max_steps=None, progress=None, chunk_steps=Non
                        "or check the case")
                 recorder.fail(msg)
                 raise RunFailed(msg)
+            if ckpt.due(state) and state.step < n_total:
+                ckpt.write(state, e0)
+        if guard.signum is not None and state.step < n_total:
+            ckpt.write(state, e0)
+            raise Interrupted(guard.signum, state.step, state.time)
         if progress:
             progress.update(state.step, state.time, obs.get("kinetic", 0.0))
-    wall = _time.perf_counter() - t_wall
-    return dict(steps=state.step, dt=dt, dt_estimate=est, wall_time=wall, state=state)

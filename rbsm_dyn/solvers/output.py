@@ -116,8 +116,36 @@ class Recorder:
             w.add_series(f"observables/{name}", (), "f8", unit)
         for name, p in self.probes.items():
             w.add_series(f"observables/{name}", (), "f8", PROBE_UNITS[p.quantity])
+        if case.solver.mode == "dynamic":
+            # checkpoint slots (solvers/checkpoint.py): no dataset can be made after start()
+            from ..model import new_state
+            from .checkpoint import create_slots
+            create_slots(w.h5file, new_state(m))
         w.start()
         self._delta = np.zeros((m.n_springs, 3))
+
+    @classmethod
+    def resume(cls, case, model, path, frames, *, extra_observables=()):
+        """A Recorder appending to an existing history (restart,
+        solvers/checkpoint.py): the file is cut back to ``frames`` frames."""
+        self = cls.__new__(cls)
+        self.case = case
+        self.model = model
+        self.fields = list(case.output.fields)
+        self.probes = dict(case.output.probes or {})
+        self.observables = {"kinetic": "J", "strain": "J", "external_work": "J",
+                            "damping": "J", "plastic": "J", "fracture": "J",
+                            "n_broken": "1", "crack_area": "m2"}
+        self.observables.update(dict(extra_observables))
+        self.writer = HistoryWriter.reopen(path, frames=frames)
+        expected = {FIELD_SERIES[n][0] for n in self.fields} | \
+            {f"observables/{n}" for n in list(self.observables) + list(self.probes)}
+        if set(self.writer.series_paths) != expected:
+            self.writer.h5file.close()
+            raise ValueError(f"{path}: its series {sorted(self.writer.series_paths)} are not "
+                             f"those of the case {sorted(expected)}")
+        self._delta = np.zeros((model.n_springs, 3))
+        return self
 
     def strain_energy(self, state):
         m = self.model

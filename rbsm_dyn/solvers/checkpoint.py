@@ -1,0 +1,286 @@
+"""Checkpoint and restart of dynamic runs (docs/history.md, "Checkpoint and
+restart").
+
+A checkpoint is the whole :class:`rbsm_dyn.model.State` -- every array,
+``step`` and ``dt`` -- plus the number of history frames written so far and
+the initial energy of the divergence guard, stored in the history file under
+``/checkpoint``.  HDF5 SWMR mode forbids creating datasets once frames are
+appended, so the datasets are made with the rest of the file
+(:func:`create_slots`, called by the Recorder) in two slots, ``slot0`` and
+``slot1``, written alternately: a checkpoint fills the slot not in use,
+flushes, and only then points the group attribute ``current`` at it (flushed
+again).  A run killed at any moment -- even while a checkpoint is being
+written -- leaves the previous checkpoint valid.
+
+When one is written (solvers/explicit.py):
+
+* at an output step, when ``output.checkpoint_interval`` [s of simulated
+  time] has passed since the last one -- or, without that key, when
+  ``DEFAULT_WALL_INTERVAL`` seconds of wall time have;
+* at the end of the run (so that a completed run can be continued with a
+  later ``solver.end_time``);
+* on SIGINT or SIGTERM: :class:`SignalGuard` turns the signal into a flag;
+  the run finishes the chunk of steps it is in, writes a checkpoint, and
+  stops with :class:`Interrupted` (the command line exits 130 or 143).
+
+Restart (``python -m rbsm_dyn CASE.yaml --restart RUN.h5``,
+:func:`load_for_restart`): the case must be the one that wrote the file (same
+resolved case, except ``output.file``, ``output.checkpoint_interval`` and
+``solver.end_time``); the history is cut back to the checkpoint's frame
+count (a frame written after the checkpoint, or half-written by a kill, is
+dropped and written again) and the run goes on from the restored State.
+Every array is restored bit for bit and the leapfrog resumes at the same
+half step (``start_half_step`` is not applied again), and a chunk of compiled
+steps gives the same result however the steps are split, so the restarted
+run ends in the same state, bitwise, as a run never interrupted.
+Static, linear and modal runs have no checkpoints (restart: exit 2).
+"""
+import json
+import signal
+import time as _time
+
+import h5py
+import numpy as np
+
+GROUP = "checkpoint"
+SLOTS = ("slot0", "slot1")
+#: State arrays saved (all of them: model.State)
+ARRAYS = ("body_pos", "body_quat", "body_vel", "body_angmom", "body_rot", "body_dq",
+          "body_wrench", "body_support", "spring_force", "body_work", "body_damp",
+          "body_reaction", "spring_state", "spring_dp", "spring_kappa", "spring_dmg",
+          "spring_wp", "spring_wf")
+#: case keys that may differ between the run and its restart
+FREE_KEYS = (("output", "file"), ("output", "checkpoint_interval"), ("solver", "end_time"))
+DEFAULT_WALL_INTERVAL = 300.0      # s of wall time between checkpoints, without the key
+SIGNAL_EXIT = {signal.SIGINT: 130, signal.SIGTERM: 143}
+
+
+class RestartError(ValueError):
+    """A restart that cannot be made (no checkpoint, another case ...)."""
+
+
+class Interrupted(Exception):
+    """The run stopped on a signal after writing a checkpoint."""
+
+    def __init__(self, signum, step, time):
+        self.signum = signum
+        self.step = step
+        self.time = time
+        self.exit_code = SIGNAL_EXIT.get(signum, 128 + int(signum))
+        super().__init__(f"interrupted by {signal.Signals(signum).name} at step {step}, "
+                         f"t = {time:.6g} s; checkpoint written")
+
+
+# ------------------------------------------------------------------ writing
+
+def create_slots(h5file, state):
+    """Make /checkpoint with two empty slots shaped like ``state`` (before
+    SWMR starts)."""
+    g = h5file.create_group(GROUP)
+    g.attrs["current"] = np.int64(-1)
+    g.attrs["format"] = np.int64(1)
+    for name in SLOTS:
+        s = g.create_group(name)
+        for a in ARRAYS:
+            arr = getattr(state, a)
+            s.create_dataset(a, shape=arr.shape, dtype=arr.dtype)
+        for a, dt in (("step", np.int64), ("dt", np.float64), ("frames", np.int64),
+                      ("e0", np.float64), ("time", np.float64)):
+            s.create_dataset(a, shape=(), dtype=dt)
+
+
+class Checkpointer:
+    """Writes checkpoints into the history of a Recorder (None: no slots)."""
+
+    def __init__(self, recorder, case):
+        self.writer = recorder.writer
+        f = self.writer.h5file
+        self.group = f[GROUP] if GROUP in f else None
+        self.interval = getattr(case.output, "checkpoint_interval", None)
+        self.last_time = None
+        self.last_wall = _time.monotonic()
+        self.count = 0
+
+    @property
+    def enabled(self):
+        return self.group is not None
+
+    def due(self, state):
+        """At an output step: has the interval passed since the last one?"""
+        if not self.enabled:
+            return False
+        if self.interval is not None:
+            last = 0.0 if self.last_time is None else self.last_time
+            return state.time >= last + self.interval * (1.0 - 1e-9)
+        return _time.monotonic() - self.last_wall >= DEFAULT_WALL_INTERVAL
+
+    def mark(self, state):
+        """The run starts (or resumes) at this state: intervals count from here."""
+        self.last_time = state.time
+        self.last_wall = _time.monotonic()
+
+    def write(self, state, e0):
+        if not self.enabled:
+            return
+        g = self.group
+        cur = int(g.attrs["current"])
+        slot = SLOTS[0] if cur != 0 else SLOTS[1]
+        s = g[slot]
+        for a in ARRAYS:
+            arr = getattr(state, a)
+            if arr.size:
+                s[a][...] = arr
+        s["step"][()] = np.int64(state.step)
+        s["dt"][()] = np.float64(state.dt)
+        s["time"][()] = np.float64(state.time)
+        s["frames"][()] = np.int64(self.writer.frames)
+        s["e0"][()] = np.float64(e0)
+        f = self.writer.h5file
+        f.flush()                                    # the slot is on disk ...
+        g.attrs.modify("current", np.int64(SLOTS.index(slot)))
+        f.flush()                                    # ... and only then current
+        self.count += 1
+        self.mark(state)
+
+
+# ------------------------------------------------------------------ signals
+
+class SignalGuard:
+    """Within the block, SIGINT and SIGTERM set ``signum`` instead of
+    stopping the process (a second one raises KeyboardInterrupt at once);
+    the previous handlers come back on exit.  Outside the main thread it
+    does nothing."""
+
+    def __init__(self):
+        self.signum = None
+        self._old = {}
+
+    def _handler(self, signum, frame):
+        if self.signum is not None:
+            raise KeyboardInterrupt
+        self.signum = signum
+
+    def __enter__(self):
+        for sig in SIGNAL_EXIT:
+            try:
+                self._old[sig] = signal.signal(sig, self._handler)
+            except (ValueError, OSError):       # not the main thread
+                pass
+        return self
+
+    def __exit__(self, *exc):
+        for sig, old in self._old.items():
+            signal.signal(sig, old)
+        self._old.clear()
+
+
+# ------------------------------------------------------------------ reading
+
+def checkpoint_info(path):
+    """(step, time, frames) of the last valid checkpoint in a history file,
+    or None (no checkpoint yet).  Works on a file still being written."""
+    with h5py.File(str(path), "r", swmr=True) as f:
+        if GROUP not in f:
+            return None
+        g = f[GROUP]
+        cur = int(g.attrs["current"])
+        if cur < 0:
+            return None
+        s = g[SLOTS[cur]]
+        return int(s["step"][()]), float(s["time"][()]), int(s["frames"][()])
+
+
+def read_checkpoint(path):
+    """The last valid checkpoint: dict of the State arrays and ``step``,
+    ``dt``, ``time``, ``frames``, ``e0``; and the resolved case (JSON
+    text) of the run.  Raises RestartError."""
+    try:
+        f = h5py.File(str(path), "r", swmr=True)
+    except (OSError, ValueError) as exc:
+        raise RestartError(f"{path}: cannot open the history file ({exc})") from None
+    with f:
+        if GROUP not in f:
+            raise RestartError(f"{path}: no /checkpoint group (not a dynamic run's history, "
+                               "or written by an older rbsm_dyn)")
+        g = f[GROUP]
+        cur = int(g.attrs["current"])
+        if cur < 0:
+            raise RestartError(f"{path}: holds no checkpoint yet (the run stopped before "
+                               "writing one); run the case again from the start")
+        s = g[SLOTS[cur]]
+        out = {a: s[a][()] for a in ARRAYS}
+        for a in ("step", "dt", "time", "frames", "e0"):
+            out[a] = s[a][()].item()
+        case = f["parameters/case"].asstr()[()] if "parameters/case" in f else None
+        frames_in_file = int(f.attrs.get("frames", 0))
+    if out["frames"] > frames_in_file:
+        raise RestartError(f"{path}: the checkpoint counts {out['frames']} frames but the "
+                           f"file has {frames_in_file}")
+    return out, case
+
+
+def _first_difference(a, b, path=()):
+    """Key path of the first difference between two JSON values, or None."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        for k in list(a) + [k for k in b if k not in a]:
+            if k not in a or k not in b:
+                return path + (k,)
+            d = _first_difference(a[k], b[k], path + (k,))
+            if d is not None:
+                return d
+        return None
+    if isinstance(a, list) and isinstance(b, list):
+        if len(a) != len(b):
+            return path
+        for j, (x, y) in enumerate(zip(a, b)):
+            d = _first_difference(x, y, path + (j,))
+            if d is not None:
+                return d
+        return None
+    return None if a == b else path
+
+
+def _drop_free(d):
+    d = json.loads(json.dumps(d))
+    for sec, key in FREE_KEYS:
+        if isinstance(d.get(sec), dict):
+            d[sec].pop(key, None)
+    return d
+
+
+def load_for_restart(case, model, path):
+    """Check that ``path`` can continue ``case`` and return its checkpoint
+    as a restored State.  Raises RestartError naming the problem."""
+    from ..model import new_state
+    if case.solver.mode != "dynamic":
+        raise RestartError(f"--restart: solver.mode {case.solver.mode} has no checkpoints "
+                           "(only dynamic runs can be restarted; run the case again)")
+    data, case_json = read_checkpoint(path)
+    if case_json is not None:
+        then = _drop_free(json.loads(case_json))
+        now = _drop_free(json.loads(json.dumps(case.resolved())))
+        diff = _first_difference(then, now)
+        if diff is not None:
+            key = ".".join(str(k) for k in diff) or "(top level)"
+
+            def show(d):
+                for k in diff:
+                    try:
+                        d = d[k]
+                    except (KeyError, IndexError, TypeError):
+                        return "absent"
+                return json.dumps(d)
+            raise RestartError(f"--restart {path}: the file was written by a different case: "
+                               f"{key} is {show(then)} there and {show(now)} here")
+    state = new_state(model)
+    for a in ARRAYS:
+        arr = getattr(state, a)
+        saved = data[a]
+        if saved.shape != arr.shape or saved.dtype != arr.dtype:
+            raise RestartError(f"--restart {path}: checkpoint array {a} has shape "
+                               f"{saved.shape} {saved.dtype}, the model needs {arr.shape} "
+                               f"{arr.dtype} (a different mesh or rbsm_dyn version)")
+        setattr(state, a, np.ascontiguousarray(saved))
+    state.step = int(data["step"])
+    state.dt = float(data["dt"])
+    return state, data
