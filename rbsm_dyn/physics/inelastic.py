@@ -35,7 +35,8 @@ from .laws import (BROKEN, CONTACT, P_COH, P_CRIT, P_EPSCR, P_FT, P_GF, P_MU,
 from .laws.contact import CONTACT_OFF, contact_traction
 from .laws.plastic import plastic_return
 from .laws.rupture import SOFTENING, STRAIN, equivalent_strain, softening_damage
-from .springs import clear_wrenches, deposit_b, flush_a, gap_and_scaled_frame
+from .springs import (clear_wrenches, deposit_b, flush_a, gap_and_scaled_frame,
+                      serial_pass)
 
 JIT = dict(cache=True, nogil=True, fastmath=False, error_model="numpy")
 
@@ -49,6 +50,139 @@ def _contact_energy(kn, dn):
     return 0.5 * kn * dn * dn if dn < 0.0 else 0.0
 
 
+@nb.njit(inline="always", **JIT)
+def _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
+                     spring_frame0, spring_k, spring_area, spring_h, spring_law, law_params,
+                     body_pos, body_rot, body_dq, body_wrench, body_support,
+                     spring_state, spring_dp, spring_kappa, spring_dmg, spring_wp, spring_wf,
+                     store, spring_force):
+    """The springs of group g, in order (partition.py)."""
+    s0 = group_ptr[g]
+    s1 = group_ptr[g + 1]
+    if s1 == s0:
+        return
+    cur = spring_bodies[s0, 0]
+    w0 = w1 = w2 = w3 = w4 = w5 = 0.0
+    for s in range(s0, s1):
+        (d0, d1, d2, m0, m1, m2,
+         G00, G01, G02, G10, G11, G12, G20, G21, G22, n2) = gap_and_scaled_frame(
+            s, spring_bodies, spring_arm_a, spring_arm_b, spring_frame0,
+            body_pos, body_rot, body_dq)
+        c = 1.0 / n2
+        F00, F01, F02 = c * G00, c * G01, c * G02
+        F10, F11, F12 = c * G10, c * G11, c * G12
+        F20, F21, F22 = c * G20, c * G21, c * G22
+        dn = F00 * d0 + F10 * d1 + F20 * d2
+        ds = F01 * d0 + F11 * d1 + F21 * d2
+        dt = F02 * d0 + F12 * d1 + F22 * d2
+        kn = spring_k[s, 0]
+        ks = spring_k[s, 1]
+        kt = spring_k[s, 2]
+        area = spring_area[s]
+        P = law_params[spring_law[s]]
+        state = spring_state[s]
+        fn = fs = ft = 0.0
+        if state < BROKEN:
+            en = dn - spring_dp[s, 0]
+            es = ds - spring_dp[s, 1]
+            et = dt - spring_dp[s, 2]
+            dmg = spring_dmg[s]
+            rupt = P[P_RUPT]
+            if rupt == SOFTENING:
+                kappa = spring_kappa[s]
+                if en > kappa:
+                    kappa = en
+                    spring_kappa[s] = kappa
+                    dnew = softening_damage(kappa, kn / area, P[P_FT], P[P_GF])
+                    if dnew > dmg:
+                        # energy release rate Y = ½ k e² (undamaged springs)
+                        y = 0.5 * (kn * en * en + ks * es * es + kt * et * et)
+                        spring_wf[s] += y * (dnew - dmg)
+                        dmg = dnew
+                        spring_dmg[s] = dmg
+            fn = kn * en
+            if fn > 0.0:
+                fn *= 1.0 - dmg          # a crack transmits no tension ...
+            fs = (1.0 - dmg) * ks * es   # ... and less shear
+            ft = (1.0 - dmg) * kt * et
+            crit = P[P_CRIT]
+            if crit > 0:
+                a = area
+                gn, gs, gt, yielded = plastic_return(int(crit), P[P_SY] * a, P[P_COH] * a,
+                                                     P[P_TANPHI], P[P_TENSION] * a,
+                                                     kn, ks, fn, fs, ft)
+                if yielded:
+                    # (a support may hold only some components: k = 0 there)
+                    pn = (fn - gn) / kn if kn > 0.0 else 0.0
+                    ps = (fs - gs) / ks if ks > 0.0 else 0.0
+                    pt = (ft - gt) / kt if kt > 0.0 else 0.0
+                    spring_dp[s, 0] += pn
+                    spring_dp[s, 1] += ps
+                    spring_dp[s, 2] += pt
+                    spring_wp[s] += gn * pn + gs * ps + gt * pt
+                    fn, fs, ft = gn, gs, gt
+                    en -= pn
+                    es -= ps
+                    et -= pt
+                    state = YIELDED
+            broken = dmg >= 1.0
+            if rupt == STRAIN and equivalent_strain(dn, ds, dt, spring_h[s]) >= P[P_EPSCR]:
+                broken = True
+            if broken:
+                # stored energy before (with damage) minus what contact keeps
+                e_in = 0.5 * (fn * en + fs * es + ft * et)
+                spring_wf[s] += e_in - _contact_energy(kn, dn)
+                state = BROKEN
+                spring_dp[s, 0] = 0.0
+                spring_dp[s, 1] = ds
+                spring_dp[s, 2] = dt
+            spring_state[s] = state
+        if state >= BROKEN:
+            if (dn * dn + ds * ds + dt * dt > spring_h[s] * spring_h[s]
+                    or n2 < N2_PARTED):
+                # moved apart by a whole spring length (opened, slid or turned
+                # away), or turned by more than a right angle against each
+                # other (the mid frame is no longer the face's): the two cells
+                # have parted and no longer meet at this face (RBSM contact is
+                # between the original neighbours only)
+                spring_kappa[s] = np.inf
+            ss0 = spring_dp[s, 1]
+            st0 = spring_dp[s, 2]
+            mu = P[P_MU] if spring_kappa[s] != np.inf else CONTACT_OFF
+            fn, fs, ft, ss1, st1, closed = contact_traction(mu, kn, ks, kt, dn, ds, dt,
+                                                                ss0, st0)
+            if closed:
+                # friction work on the slip increment
+                spring_wp[s] += fs * (ss1 - ss0) + ft * (st1 - st0)
+            spring_dp[s, 1] = ss1
+            spring_dp[s, 2] = st1
+            spring_state[s] = CONTACT if closed else BROKEN
+        f0 = F00 * fn + F01 * fs + F02 * ft
+        f1 = F10 * fn + F11 * fs + F12 * ft
+        f2 = F20 * fn + F21 * fs + F22 * ft
+        ba = spring_bodies[s, 0]
+        if ba != cur:
+            flush_a(cur, w0, w1, w2, w3, w4, w5, body_wrench)
+            cur = ba
+            w0 = w1 = w2 = w3 = w4 = w5 = 0.0
+        # force f at m on body a: moment (m − x_a) × f (springs.py)
+        r0 = m0 - body_pos[ba, 0]
+        r1 = m1 - body_pos[ba, 1]
+        r2 = m2 - body_pos[ba, 2]
+        w0 += f0
+        w1 += f1
+        w2 += f2
+        w3 += r1 * f2 - r2 * f1
+        w4 += r2 * f0 - r0 * f2
+        w5 += r0 * f1 - r1 * f0
+        deposit_b(s, ba, f0, f1, f2, m0, m1, m2, spring_bodies, body_pos, body_wrench,
+                  body_support)
+        if store:
+            spring_force[s, 0] = f0
+            spring_force[s, 1] = f1
+            spring_force[s, 2] = f2
+    flush_a(cur, w0, w1, w2, w3, w4, w5, body_wrench)
+
 @nb.njit(parallel=True, **JIT)
 def _inelastic_phase(lo, hi, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
                      spring_frame0, spring_k, spring_area, spring_h, spring_law, law_params,
@@ -56,131 +190,24 @@ def _inelastic_phase(lo, hi, group_ptr, spring_bodies, spring_arm_a, spring_arm_
                      spring_state, spring_dp, spring_kappa, spring_dmg, spring_wp, spring_wf,
                      store, spring_force):
     for g in nb.prange(lo, hi):
-        s0 = group_ptr[g]
-        s1 = group_ptr[g + 1]
-        if s1 == s0:
-            continue
-        cur = spring_bodies[s0, 0]
-        w0 = w1 = w2 = w3 = w4 = w5 = 0.0
-        for s in range(s0, s1):
-            (d0, d1, d2, m0, m1, m2,
-             G00, G01, G02, G10, G11, G12, G20, G21, G22, n2) = gap_and_scaled_frame(
-                s, spring_bodies, spring_arm_a, spring_arm_b, spring_frame0,
-                body_pos, body_rot, body_dq)
-            c = 1.0 / n2
-            F00, F01, F02 = c * G00, c * G01, c * G02
-            F10, F11, F12 = c * G10, c * G11, c * G12
-            F20, F21, F22 = c * G20, c * G21, c * G22
-            dn = F00 * d0 + F10 * d1 + F20 * d2
-            ds = F01 * d0 + F11 * d1 + F21 * d2
-            dt = F02 * d0 + F12 * d1 + F22 * d2
-            kn = spring_k[s, 0]
-            ks = spring_k[s, 1]
-            kt = spring_k[s, 2]
-            area = spring_area[s]
-            P = law_params[spring_law[s]]
-            state = spring_state[s]
-            fn = fs = ft = 0.0
-            if state < BROKEN:
-                en = dn - spring_dp[s, 0]
-                es = ds - spring_dp[s, 1]
-                et = dt - spring_dp[s, 2]
-                dmg = spring_dmg[s]
-                rupt = P[P_RUPT]
-                if rupt == SOFTENING:
-                    kappa = spring_kappa[s]
-                    if en > kappa:
-                        kappa = en
-                        spring_kappa[s] = kappa
-                        dnew = softening_damage(kappa, kn / area, P[P_FT], P[P_GF])
-                        if dnew > dmg:
-                            # energy release rate Y = ½ k e² (undamaged springs)
-                            y = 0.5 * (kn * en * en + ks * es * es + kt * et * et)
-                            spring_wf[s] += y * (dnew - dmg)
-                            dmg = dnew
-                            spring_dmg[s] = dmg
-                fn = kn * en
-                if fn > 0.0:
-                    fn *= 1.0 - dmg          # a crack transmits no tension ...
-                fs = (1.0 - dmg) * ks * es   # ... and less shear
-                ft = (1.0 - dmg) * kt * et
-                crit = P[P_CRIT]
-                if crit > 0:
-                    a = area
-                    gn, gs, gt, yielded = plastic_return(int(crit), P[P_SY] * a, P[P_COH] * a,
-                                                         P[P_TANPHI], P[P_TENSION] * a,
-                                                         kn, ks, fn, fs, ft)
-                    if yielded:
-                        # (a support may hold only some components: k = 0 there)
-                        pn = (fn - gn) / kn if kn > 0.0 else 0.0
-                        ps = (fs - gs) / ks if ks > 0.0 else 0.0
-                        pt = (ft - gt) / kt if kt > 0.0 else 0.0
-                        spring_dp[s, 0] += pn
-                        spring_dp[s, 1] += ps
-                        spring_dp[s, 2] += pt
-                        spring_wp[s] += gn * pn + gs * ps + gt * pt
-                        fn, fs, ft = gn, gs, gt
-                        en -= pn
-                        es -= ps
-                        et -= pt
-                        state = YIELDED
-                broken = dmg >= 1.0
-                if rupt == STRAIN and equivalent_strain(dn, ds, dt, spring_h[s]) >= P[P_EPSCR]:
-                    broken = True
-                if broken:
-                    # stored energy before (with damage) minus what contact keeps
-                    e_in = 0.5 * (fn * en + fs * es + ft * et)
-                    spring_wf[s] += e_in - _contact_energy(kn, dn)
-                    state = BROKEN
-                    spring_dp[s, 0] = 0.0
-                    spring_dp[s, 1] = ds
-                    spring_dp[s, 2] = dt
-                spring_state[s] = state
-            if state >= BROKEN:
-                if (dn * dn + ds * ds + dt * dt > spring_h[s] * spring_h[s]
-                        or n2 < N2_PARTED):
-                    # moved apart by a whole spring length (opened, slid or turned
-                    # away), or turned by more than a right angle against each
-                    # other (the mid frame is no longer the face's): the two cells
-                    # have parted and no longer meet at this face (RBSM contact is
-                    # between the original neighbours only)
-                    spring_kappa[s] = np.inf
-                ss0 = spring_dp[s, 1]
-                st0 = spring_dp[s, 2]
-                mu = P[P_MU] if spring_kappa[s] != np.inf else CONTACT_OFF
-                fn, fs, ft, ss1, st1, closed = contact_traction(mu, kn, ks, kt, dn, ds, dt,
-                                                                    ss0, st0)
-                if closed:
-                    # friction work on the slip increment
-                    spring_wp[s] += fs * (ss1 - ss0) + ft * (st1 - st0)
-                spring_dp[s, 1] = ss1
-                spring_dp[s, 2] = st1
-                spring_state[s] = CONTACT if closed else BROKEN
-            f0 = F00 * fn + F01 * fs + F02 * ft
-            f1 = F10 * fn + F11 * fs + F12 * ft
-            f2 = F20 * fn + F21 * fs + F22 * ft
-            ba = spring_bodies[s, 0]
-            if ba != cur:
-                flush_a(cur, w0, w1, w2, w3, w4, w5, body_wrench)
-                cur = ba
-                w0 = w1 = w2 = w3 = w4 = w5 = 0.0
-            # force f at m on body a: moment (m − x_a) × f (springs.py)
-            r0 = m0 - body_pos[ba, 0]
-            r1 = m1 - body_pos[ba, 1]
-            r2 = m2 - body_pos[ba, 2]
-            w0 += f0
-            w1 += f1
-            w2 += f2
-            w3 += r1 * f2 - r2 * f1
-            w4 += r2 * f0 - r0 * f2
-            w5 += r0 * f1 - r1 * f0
-            deposit_b(s, ba, f0, f1, f2, m0, m1, m2, spring_bodies, body_pos, body_wrench,
-                      body_support)
-            if store:
-                spring_force[s, 0] = f0
-                spring_force[s, 1] = f1
-                spring_force[s, 2] = f2
-        flush_a(cur, w0, w1, w2, w3, w4, w5, body_wrench)
+        _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spring_frame0,
+                         spring_k, spring_area, spring_h, spring_law, law_params, body_pos,
+                         body_rot, body_dq, body_wrench, body_support, spring_state, spring_dp,
+                         spring_kappa, spring_dmg, spring_wp, spring_wf, store, spring_force)
+
+
+@nb.njit(**JIT)
+def _inelastic_phase_serial(lo, hi, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
+                            spring_frame0, spring_k, spring_area, spring_h, spring_law, law_params,
+                            body_pos, body_rot, body_dq, body_wrench, body_support,
+                            spring_state, spring_dp, spring_kappa, spring_dmg, spring_wp,
+                            spring_wf,
+                            store, spring_force):
+    for g in range(lo, hi):
+        _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spring_frame0,
+                         spring_k, spring_area, spring_h, spring_law, law_params, body_pos,
+                         body_rot, body_dq, body_wrench, body_support, spring_state, spring_dp,
+                         spring_kappa, spring_dmg, spring_wp, spring_wf, store, spring_force)
 
 
 @nb.njit(**JIT)
@@ -193,6 +220,13 @@ def inelastic_spring_pass(phase_ptr, group_ptr, spring_bodies, spring_arm_a, spr
     summed into the bodies' wrenches in the schedule of partition.py;
     `store`: also write each spring's force (output steps)."""
     clear_wrenches(body_wrench, body_support)
+    if serial_pass(spring_bodies.shape[0]):
+        _inelastic_phase_serial(0, phase_ptr[phase_ptr.shape[0] - 1], group_ptr, spring_bodies,
+                                spring_arm_a, spring_arm_b, spring_frame0, spring_k, spring_area,
+                                spring_h, spring_law, law_params, body_pos, body_rot, body_dq,
+                                body_wrench, body_support, spring_state, spring_dp, spring_kappa,
+                                spring_dmg, spring_wp, spring_wf, store, spring_force)
+        return
     for ph in range(phase_ptr.shape[0] - 1):
         _inelastic_phase(phase_ptr[ph], phase_ptr[ph + 1], group_ptr, spring_bodies,
                          spring_arm_a, spring_arm_b, spring_frame0, spring_k, spring_area,

@@ -207,7 +207,8 @@ def run_dynamic(n_steps, step0, dt, inelastic,
                 dof_kind, dof_value, dof_hist, hist_ptr, hist_t, hist_a,
                 body_work, body_damp):
     """Advance n_steps explicit steps inside compiled code.  Step order:
-    springs at x_n (summed into the body wrenches) → bodies kick, drift.  The spring kernel is the elastic one unless `inelastic` (yield,
+    springs at x_n (summed into the body wrenches) → bodies kick, drift.
+    The spring kernel is the elastic one unless `inelastic` (yield,
     rupture, contact: physics/inelastic.py, with the per-spring history
     arrays; empty otherwise)."""
     for k in range(n_steps):
@@ -221,8 +222,8 @@ def run_dynamic(n_steps, step0, dt, inelastic,
                                   spring_force)
         else:
             elastic_spring_pass(phase_ptr, group_ptr, spring_bodies, spring_arm_a,
-                                spring_arm_b, spring_frame0, spring_n0, spring_k, body_pos, body_rot,
-                                body_dq, body_wrench, body_support, False, spring_force)
+                                spring_arm_b, spring_frame0, spring_n0, spring_k, body_pos,
+                                body_rot, body_dq, body_wrench, body_support, False, spring_force)
         dynamic_body_pass(t, dt, body_wrench,
                           body_mass, body_inertia, body_pos, body_pos0, body_quat,
                           body_quat0, body_vel, body_angmom, body_rot, body_dq,

@@ -52,7 +52,8 @@ def _rayleigh(u, v_prev, f, f_prev, m, reset):
 
 
 @nb.njit(parallel=True, **JIT)
-def relax_body_pass(lam, kind, beta, c, reset, body_wrench, body_support, body_mass_real, fict_mass,
+def relax_body_pass(lam, kind, beta, c, reset, body_wrench, body_support, body_mass_real,
+                    fict_mass,
                     fict_inertia, body_pos, body_pos0, body_quat, body_quat0, body_vel,
                     body_angmom, body_rot, body_dq, body_fext, body_mext, gravity,
                     dof_kind, dof_value, arm_length, body_resid, body_reaction,
@@ -154,8 +155,8 @@ def run_relax(n_iter, lam, kind, beta, c, reset,
                                   spring_force)
         else:
             elastic_spring_pass(phase_ptr, group_ptr, spring_bodies, spring_arm_a,
-                                spring_arm_b, spring_frame0, spring_n0, spring_k, body_pos, body_rot,
-                                body_dq, body_wrench, body_support, False, spring_force)
+                                spring_arm_b, spring_frame0, spring_n0, spring_k, body_pos,
+                                body_rot, body_dq, body_wrench, body_support, False, spring_force)
         relax_body_pass(lam, kind, beta, c, first, body_wrench, body_support, body_mass_real,
                         fict_mass, fict_inertia, body_pos, body_pos0, body_quat, body_quat0,
                         body_vel, body_angmom, body_rot, body_dq, body_fext, body_mext,

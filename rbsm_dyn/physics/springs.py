@@ -125,81 +125,111 @@ def flush_a(a, w0, w1, w2, w3, w4, w5, body_wrench):
     body_wrench[a, 5] += w5
 
 
-@nb.njit(parallel=True, **JIT)
-def clear_wrenches(body_wrench, body_support):
-    for i in nb.prange(body_wrench.shape[0]):
-        for k in range(6):
-            body_wrench[i, k] = 0.0
-        for k in range(3):
-            body_support[i, k] = 0.0
+# below this many springs a spring pass runs its phases serially: the same
+# order of sums (so the same result), without the parallel regions' launch
+# cost, which is larger than the work on small models.  (The thread count is
+# not asked here: nb.get_num_threads() in a kernel stops Numba caching it.)
+SERIAL_SPRINGS = 4096
 
+
+@nb.njit(inline="always", **JIT)
+def serial_pass(n_springs):
+    """True when a spring pass should skip the parallel regions."""
+    return n_springs < SERIAL_SPRINGS
+
+
+@nb.njit(**JIT)
+def clear_wrenches(body_wrench, body_support):
+    body_wrench[:] = 0.0
+    body_support[:] = 0.0
+
+
+@nb.njit(inline="always", **JIT)
+def _elastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
+                   spring_frame0, spring_n0, spring_k, body_pos, body_rot, body_dq, body_wrench,
+                   body_support, store, spring_force):
+    """The springs of group g, in order (partition.py)."""
+    s0 = group_ptr[g]
+    s1 = group_ptr[g + 1]
+    if s1 == s0:
+        return
+    cur = np.uint64(spring_bodies[s0, 0])
+    w0 = w1 = w2 = w3 = w4 = w5 = 0.0
+    for s in range(np.uint64(s0), np.uint64(s1)):
+        (d0, d1, d2, m0, m1, m2, q0, q1, q2, q3, n2) = gap_and_mid(
+            s, spring_bodies, spring_arm_a, spring_arm_b, body_pos, body_rot, body_dq)
+        # f = F diag(k) Fᵀ d = k_s d + (k_n − k_s) n (n·d) + (k_t − k_s) t (t·d):
+        # the shear pair only needs the normal n = R(q) n0 when k_t = k_s.
+        # n2·n by the homogeneous rotation formula of the unnormalised q:
+        # (q0² − |v|²) n0 + 2 (v·n0) v + 2 q0 (v × n0)   (v = (q1, q2, q3))
+        e0, e1, e2 = spring_n0[s, 0], spring_n0[s, 1], spring_n0[s, 2]
+        cq = q0 * q0 - (q1 * q1 + q2 * q2 + q3 * q3)
+        vn = 2.0 * (q1 * e0 + q2 * e1 + q3 * e2)
+        h0 = 2.0 * q0
+        N0 = cq * e0 + vn * q1 + h0 * (q2 * e2 - q3 * e1)
+        N1 = cq * e1 + vn * q2 + h0 * (q3 * e0 - q1 * e2)
+        N2 = cq * e2 + vn * q3 + h0 * (q1 * e1 - q2 * e0)
+        kn = spring_k[s, 0]
+        ks = spring_k[s, 1]
+        kt = spring_k[s, 2]
+        inv = 1.0 / (n2 * n2)
+        cn = (kn - ks) * inv * (N0 * d0 + N1 * d1 + N2 * d2)
+        f0 = ks * d0 + cn * N0
+        f1 = ks * d1 + cn * N1
+        f2 = ks * d2 + cn * N2
+        if kt != ks:
+            # a support held in some directions only: t = R(q ⊗ q0) e3
+            fr = spring_frame0[s]
+            w, x, y, z = quat_mul(q0, q1, q2, q3, fr[0], fr[1], fr[2], fr[3])
+            T0 = 2.0 * (x * z + w * y)
+            T1 = 2.0 * (y * z - w * x)
+            T2 = n2 - 2.0 * (x * x + y * y)
+            ct = (kt - ks) * inv * (T0 * d0 + T1 * d1 + T2 * d2)
+            f0 += ct * T0
+            f1 += ct * T1
+            f2 += ct * T2
+        a = np.uint64(spring_bodies[s, 0])
+        if a != cur:
+            flush_a(cur, w0, w1, w2, w3, w4, w5, body_wrench)
+            cur = a
+            w0 = w1 = w2 = w3 = w4 = w5 = 0.0
+        # force f at m on body a: moment (m − x_a) × f
+        r0 = m0 - body_pos[a, 0]
+        r1 = m1 - body_pos[a, 1]
+        r2 = m2 - body_pos[a, 2]
+        w0 += f0
+        w1 += f1
+        w2 += f2
+        w3 += r1 * f2 - r2 * f1
+        w4 += r2 * f0 - r0 * f2
+        w5 += r0 * f1 - r1 * f0
+        deposit_b(s, a, f0, f1, f2, m0, m1, m2, spring_bodies, body_pos, body_wrench,
+                  body_support)
+        if store:
+            spring_force[s, 0] = f0
+            spring_force[s, 1] = f1
+            spring_force[s, 2] = f2
+    flush_a(cur, w0, w1, w2, w3, w4, w5, body_wrench)
 
 @nb.njit(parallel=True, **JIT)
 def _elastic_phase(lo, hi, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
                    spring_frame0, spring_n0, spring_k, body_pos, body_rot, body_dq, body_wrench,
                    body_support, store, spring_force):
     for g in nb.prange(lo, hi):
-        s0 = group_ptr[g]
-        s1 = group_ptr[g + 1]
-        if s1 == s0:
-            continue
-        cur = np.uint64(spring_bodies[s0, 0])
-        w0 = w1 = w2 = w3 = w4 = w5 = 0.0
-        for s in range(np.uint64(s0), np.uint64(s1)):
-            (d0, d1, d2, m0, m1, m2, q0, q1, q2, q3, n2) = gap_and_mid(
-                s, spring_bodies, spring_arm_a, spring_arm_b, body_pos, body_rot, body_dq)
-            # f = F diag(k) Fᵀ d = k_s d + (k_n − k_s) n (n·d) + (k_t − k_s) t (t·d):
-            # the shear pair only needs the normal n = R(q) n0 when k_t = k_s.
-            # n2·n by the homogeneous rotation formula of the unnormalised q:
-            # (q0² − |v|²) n0 + 2 (v·n0) v + 2 q0 (v × n0)   (v = (q1, q2, q3))
-            e0, e1, e2 = spring_n0[s, 0], spring_n0[s, 1], spring_n0[s, 2]
-            cq = q0 * q0 - (q1 * q1 + q2 * q2 + q3 * q3)
-            vn = 2.0 * (q1 * e0 + q2 * e1 + q3 * e2)
-            h0 = 2.0 * q0
-            N0 = cq * e0 + vn * q1 + h0 * (q2 * e2 - q3 * e1)
-            N1 = cq * e1 + vn * q2 + h0 * (q3 * e0 - q1 * e2)
-            N2 = cq * e2 + vn * q3 + h0 * (q1 * e1 - q2 * e0)
-            kn = spring_k[s, 0]
-            ks = spring_k[s, 1]
-            kt = spring_k[s, 2]
-            inv = 1.0 / (n2 * n2)
-            cn = (kn - ks) * inv * (N0 * d0 + N1 * d1 + N2 * d2)
-            f0 = ks * d0 + cn * N0
-            f1 = ks * d1 + cn * N1
-            f2 = ks * d2 + cn * N2
-            if kt != ks:
-                # a support held in some directions only: t = R(q ⊗ q0) e3
-                fr = spring_frame0[s]
-                w, x, y, z = quat_mul(q0, q1, q2, q3, fr[0], fr[1], fr[2], fr[3])
-                T0 = 2.0 * (x * z + w * y)
-                T1 = 2.0 * (y * z - w * x)
-                T2 = n2 - 2.0 * (x * x + y * y)
-                ct = (kt - ks) * inv * (T0 * d0 + T1 * d1 + T2 * d2)
-                f0 += ct * T0
-                f1 += ct * T1
-                f2 += ct * T2
-            a = np.uint64(spring_bodies[s, 0])
-            if a != cur:
-                flush_a(cur, w0, w1, w2, w3, w4, w5, body_wrench)
-                cur = a
-                w0 = w1 = w2 = w3 = w4 = w5 = 0.0
-            # force f at m on body a: moment (m − x_a) × f
-            r0 = m0 - body_pos[a, 0]
-            r1 = m1 - body_pos[a, 1]
-            r2 = m2 - body_pos[a, 2]
-            w0 += f0
-            w1 += f1
-            w2 += f2
-            w3 += r1 * f2 - r2 * f1
-            w4 += r2 * f0 - r0 * f2
-            w5 += r0 * f1 - r1 * f0
-            deposit_b(s, a, f0, f1, f2, m0, m1, m2, spring_bodies, body_pos, body_wrench,
-                      body_support)
-            if store:
-                spring_force[s, 0] = f0
-                spring_force[s, 1] = f1
-                spring_force[s, 2] = f2
-        flush_a(cur, w0, w1, w2, w3, w4, w5, body_wrench)
+        _elastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spring_frame0,
+                       spring_n0, spring_k, body_pos, body_rot, body_dq, body_wrench, body_support,
+                       store, spring_force)
+
+
+@nb.njit(**JIT)
+def _elastic_phase_serial(lo, hi, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
+                          spring_frame0, spring_n0, spring_k, body_pos, body_rot, body_dq,
+                          body_wrench,
+                          body_support, store, spring_force):
+    for g in range(lo, hi):
+        _elastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spring_frame0,
+                       spring_n0, spring_k, body_pos, body_rot, body_dq, body_wrench, body_support,
+                       store, spring_force)
 
 
 @nb.njit(**JIT)
@@ -211,6 +241,12 @@ def elastic_spring_pass(phase_ptr, group_ptr, spring_bodies, spring_arm_a, sprin
     rotation, summed into the bodies' wrenches; `store`: also write each
     spring's force (output steps)."""
     clear_wrenches(body_wrench, body_support)
+    if serial_pass(spring_bodies.shape[0]):
+        _elastic_phase_serial(0, phase_ptr[phase_ptr.shape[0] - 1], group_ptr, spring_bodies,
+                              spring_arm_a, spring_arm_b, spring_frame0, spring_n0, spring_k,
+                              body_pos, body_rot, body_dq, body_wrench, body_support, store,
+                              spring_force)
+        return
     for ph in range(phase_ptr.shape[0] - 1):
         _elastic_phase(phase_ptr[ph], phase_ptr[ph + 1], group_ptr, spring_bodies,
                        spring_arm_a, spring_arm_b, spring_frame0, spring_n0, spring_k, body_pos,

@@ -92,8 +92,8 @@ def synchronize(model, state):
     vel = np.empty((n, 3))
     ang = np.empty((n, 3))
     synchronized_momenta(state.time, state.dt, state.body_wrench, state.body_support,
-                         m.body_mass, state.body_vel,
-                         state.body_angmom, m.body_fext, m.body_mext, m.body_load_hist, m.gravity, m.dof_kind, m.dof_value,
+                         m.body_mass, state.body_vel, state.body_angmom, m.body_fext,
+                         m.body_mext, m.body_load_hist, m.gravity, m.dof_kind, m.dof_value,
                          m.dof_hist, m.hist_ptr, m.hist_t, m.hist_a, vel, ang,
                          state.body_reaction)
     return vel, ang
