@@ -83,10 +83,12 @@ def create_slots(h5file, state):
         s = g.create_group(name)
         for a in ARRAYS:
             arr = getattr(state, a)
-            s.create_dataset(a, shape=arr.shape, dtype=arr.dtype)
+            # written now (zeros), so that the file has its full size from the
+            # start and a checkpoint only overwrites
+            s.create_dataset(a, data=np.zeros(arr.shape, dtype=arr.dtype))
         for a, dt in (("step", np.int64), ("dt", np.float64), ("frames", np.int64),
                       ("e0", np.float64), ("time", np.float64)):
-            s.create_dataset(a, shape=(), dtype=dt)
+            s.create_dataset(a, data=dt(0))
 
 
 class Checkpointer:
