@@ -5,7 +5,9 @@ python -m rbsm_dyn bench [--bodies N --steps K --threads T --physics P] (bench.p
 
 Exit status: 0 success, 2 bad case (one message naming file, line and key),
 1 failed run (divergence or no convergence, with step and time; the
-history file stays readable up to the failure).
+history file stays readable up to the failure), 130/143 stopped by
+SIGINT/SIGTERM after writing a checkpoint (dynamic runs;
+``CASE.yaml --restart RUN.h5`` continues it: solvers/checkpoint.py).
 """
 import argparse
 import os
