@@ -622,8 +622,34 @@ def _plain(node: Any, path: KeyPath, lines: dict, file: str) -> Any:
                   else _NON_CORE.get(type(node).__name__, type(node).__name__))
 
 
+#: Deepest nesting of flow collections ([...] and {...}) read: ruamel's scanner
+#: takes quadratic time in it (20 s at 1000) and recursion ends near 300.
+MAX_FLOW_DEPTH = 64
+
+
+def _flow_depth_line(text: str) -> Optional[int]:
+    """Line where brackets nest deeper than MAX_FLOW_DEPTH, or None.  Brackets
+    in quoted strings and comments count too: an upper bound."""
+    depth, line = 0, 1
+    for m in re.finditer(r"[\[\]{}\n]", text):
+        c = m.group()
+        if c == "\n":
+            line += 1
+        elif c in "[{":
+            depth += 1
+            if depth > MAX_FLOW_DEPTH:
+                return line
+        else:
+            depth = max(0, depth - 1)
+    return None
+
+
 def _parse(text: str, file: str) -> tuple[dict, dict]:
     """YAML text -> (plain dict, {key path: line})."""
+    deep = _flow_depth_line(text)
+    if deep is not None:
+        raise CaseError(file, deep, (), "YAML error: lists or mappings nested more than "
+                        f"{MAX_FLOW_DEPTH} deep")
     yaml = YAML(typ="rt")
     yaml.Constructor = _CheckedConstructor
     yaml.allow_duplicate_keys = False
@@ -658,7 +684,10 @@ def _parse(text: str, file: str) -> tuple[dict, dict]:
     if not isinstance(root, dict):
         raise CaseError(file, lines.get((), 1), (),
                         f"the top level must be a mapping of keys (got {_show(root)})")
-    return _plain(root, (), lines, file), lines
+    try:
+        return _plain(root, (), lines, file), lines
+    except RecursionError:
+        raise CaseError(file, 1, (), "YAML error: lists or mappings nested too deeply") from None
 
 
 # ------------------------------------------------------------- validation ---
@@ -894,6 +923,8 @@ def _check(case: Case) -> None:
             raise err(("output", "fields", j), f"{f} listed twice")
     if out.file is not None and not out.file.strip():
         raise err(("output", "file"), "must not be empty")
+    if out.file is not None and not out.file.isprintable():
+        raise err(("output", "file"), f"must not contain control characters (got {out.file!r})")
     for name, probe in out.probes.items():
         check_group(probe.group, ("output", "probes", name, "group"))
 
@@ -925,8 +956,9 @@ def load_case_text(text: str | bytes, filename: str = "<string>") -> Case:
 
     _to_si(case, UNIT_FACTORS[case.units])
     case.units = "SI"
-    if case.output.file is None:
-        case.output.file = f"{case.name}.h5"
+    if case.output.file is None:      # in the working directory, whatever the name holds
+        safe = "".join("_" if c in "/\\" or not c.isprintable() else c for c in case.name)
+        case.output.file = f"{safe}.h5"
     if case.solver.mode == "dynamic" and case.output.interval is None:
         case.output.interval = case.solver.end_time / 100
     return case

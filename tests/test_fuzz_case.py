@@ -361,7 +361,8 @@ def mutate(draw, data, log):
         elif what == "whole":
             box = [lo, hi]
         elif what == "overlap" and names:
-            box = copy.deepcopy(groups[draw(st.sampled_from(names))].get("box"))
+            other = groups[draw(st.sampled_from(names))]
+            box = copy.deepcopy(other.get("box")) if isinstance(other, dict) else None
         elif what == "inverted":
             box = [hi, lo]
         elif what == "point":
@@ -665,7 +666,7 @@ def check_bad(code, err, data, text_mutated, what):
         assert _resolves(data, _split_path(path)), what
 
 
-STATS = {"examples": 0, "exit2": 0, "ok": 0, "runs": 0, "infos": 0, "failed_runs": 0,
+STATS = {"examples": 0, "checked": 0, "exit2": 0, "ok": 0, "runs": 0, "infos": 0, "failed_runs": 0,
          "text": 0}
 
 
@@ -678,50 +679,58 @@ def fuzz_one(base, data, raw, log, run_kind, root, marker):
     case.write_bytes(raw)
     try:
         with time_limit(EXAMPLE_TIME_LIMIT):
-            code, out, err = cli(["check", str(case)], cwd=work)
-            assert listing(work) == ["case.yaml"], what       # check writes nothing
-            if code != 0:
-                STATS["exit2"] += 1
-                check_bad(code, err, data, text_mutated, what + "\n" + err)
-                return
-            STATS["ok"] += 1
-            m = re.search(r"ok \((\d+) bodies", out)
-            assert m and 1 <= int(m.group(1)) <= 1.2 * FUZZ_MAX_CELLS + 1, what + out
-            if run_kind == "check":
-                return
-            if run_kind == "info":
-                STATS["infos"] += 1
-                code, out, err = cli(["info", str(case)], cwd=work)
-                assert code == 0 and "bodies" in out, what + err
-                assert listing(work) == ["case.yaml"], what
-                return
-            # a short run: with --out, or to output.file relative to the working
-            # directory when that stays inside the sandbox
-            STATS["runs"] += 1
-            loaded = rbsm_dyn.load_case(case)
-            target = (work / loaded.output.file).resolve()
-            args = [str(case), "--quiet", "--max-steps", "2"]
-            if run_kind == "run_out" or target.parent != work.resolve():
-                target = work / "asked.h5"
-                args += ["--out", str(target)]
-            code, out, err = cli(args, cwd=work)
-            assert "Traceback" not in err, what + err
-            if code == 2:
-                check_bad(code, err, data, text_mutated, what + "\n" + err)
-                assert listing(work) in (["case.yaml"], sorted(["case.yaml", target.name])), what
-                return
-            assert listing(work) == sorted(["case.yaml", target.name]), what + err
-            h = rbsm_dyn.open_history(target)
-            if code == 1:
-                STATS["failed_runs"] += 1
-                assert FAILED_RUN.match(err.strip()), what + err
-                assert h.status.startswith("failed"), what
-            else:
-                assert code == 0, what + err
-                assert h.status == "completed" and h.frames >= 1, what
+            _fuzz_cli(case, raw, data, run_kind, work, text_mutated, what)
+        STATS["checked"] += 1
     finally:
         assert not os.path.exists(marker), "a YAML tag ran a command: " + what
+        assert not os.listdir(tempfile.gettempdir()), "left in the temporary directory: " + what
         shutil.rmtree(work, ignore_errors=True)
+
+
+def _fuzz_cli(case, raw, data, run_kind, work, text_mutated, what):
+    code, out, err = cli(["check", str(case)], cwd=work)
+    assert listing(work) == ["case.yaml"], what       # check writes nothing
+    if code != 0:
+        STATS["exit2"] += 1
+        check_bad(code, err, data, text_mutated, what + "\n" + err)
+        return
+    STATS["ok"] += 1
+    m = re.search(r"ok \((\d+) bodies", out)
+    assert m and 1 <= int(m.group(1)) <= 1.2 * FUZZ_MAX_CELLS + 1, what + out
+    if run_kind == "check":
+        return
+    if run_kind == "info":
+        STATS["infos"] += 1
+        code, out, err = cli(["info", str(case)], cwd=work)
+        assert code == 0 and "bodies" in out, what + err
+        assert listing(work) == ["case.yaml"], what
+        return
+    # a short run: with --out, or to output.file (relative to the working
+    # directory) when that stays inside the sandbox
+    STATS["runs"] += 1
+    loaded = rbsm_dyn.load_case(case)
+    target = (work / loaded.output.file).resolve()
+    args = [str(case), "--quiet", "--max-steps", "2"]
+    if run_kind == "run_out" or work.resolve() not in target.parents:
+        target = work.resolve() / "asked.h5"
+        args += ["--out", str(target)]
+    code, out, err = cli(args, cwd=work)
+    assert "Traceback" not in err, what + err
+    assert case.read_bytes() == raw, what          # the case file is never touched
+    if code == 2:
+        check_bad(code, err, data, text_mutated, what + "\n" + err)
+        assert listing(work) == ["case.yaml"], what
+        return
+    written = str(target.relative_to(work.resolve()))
+    assert listing(work) == sorted(["case.yaml", written]), what + err
+    h = rbsm_dyn.open_history(target)
+    if code == 1:
+        STATS["failed_runs"] += 1
+        assert FAILED_RUN.match(err.strip().splitlines()[-1]), what + err
+        assert h.status.startswith("failed"), what
+    else:
+        assert code == 0, what + err
+        assert h.status == "completed" and h.frames >= 1, what
 
 
 @st.composite
@@ -730,16 +739,24 @@ def mutated_cases(draw):
     data = copy.deepcopy(BASE_DATA[base])
     log = []
     for _ in range(draw(st.sampled_from([1, 1, 1, 2, 3]))):
-        mutate(draw, data, log)
+        try:
+            mutate(draw, data, log)
+        except (AttributeError, TypeError, KeyError, IndexError):
+            log.append(("skipped", ()))     # a mutation that did not fit this data
     n_text = draw(st.sampled_from([0, 0, 0, 0, 0, 1, 1, 2]))
     return base, data, log, n_text
 
 
 @pytest.fixture
 def fuzz_root(tmp_path, monkeypatch):
+    """The sandbox of the examples; the temporary directory of the process is
+    an empty one of its own (what is left in it is written where not asked)."""
     monkeypatch.setattr(case_module, "MAX_CELLS", FUZZ_MAX_CELLS)
     root = tmp_path / "fuzz"
     root.mkdir()
+    temp = tmp_path / "temp"
+    temp.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(temp))
     return root
 
 
@@ -769,7 +786,7 @@ def test_fuzzed_case_files_exit_2_naming_the_key_or_run(fuzz_root):
 
     fuzz()
     print("fuzz statistics:", STATS)
-    assert STATS["examples"] >= 1000, STATS
+    assert STATS["checked"] >= 1000, STATS
     assert STATS["exit2"] >= 300 and STATS["ok"] >= 100 and STATS["runs"] >= 20, STATS
 
 
@@ -799,8 +816,11 @@ REGRESSIONS = [
     # an alias inside the collection it names (a guard: ruamel makes it a None)
     ("recursive alias", (BASES["modal_blocks"] + "description: &r [1, *r]\n").encode(),
      "description"),
+    # [[[[...]]]] 5000 deep: 30 s in ruamel's scanner (quadratic), then RecursionError
     ("nested too deeply", (BASES["modal_blocks"] + "description: " + "[" * 5000 + "]" * 5000
                            + "\n").encode(), "<document>"),
+    ("nested blocks too deeply", (BASES["modal_blocks"] + "description:\n" + "".join(
+        "  " * i + "-\n" for i in range(1, 1200))).encode(), "<document>"),
     # an explicit tag the value does not fit: KeyError / ValueError inside ruamel
     ("!!bool 'x'", _edit("modal_blocks", "density: 8000", "density: !!bool 'x'").encode(),
      "materials.steel.density"),
@@ -837,3 +857,137 @@ def test_regression(fuzz_root, what, raw, key):
     assert m and "\n" not in err.strip() and "Traceback" not in err, err
     assert m.group("line") != "?", err
     assert m.group("path").startswith(key), err
+
+
+# ------------------------------------------------------------ output paths ---
+
+@pytest.mark.parametrize("what, edit, argv, code, key", [
+    # name: ../up used to make the default output ../up.h5, outside the directory
+    ("name with a path", ("name: fz-modal", "name: ../up"), [], 0, ".._up.h5"),
+    ("name with a slash", ("name: fz-modal", "name: /abs"), [], 0, "_abs.h5"),
+    # h5py's FileNotFoundError / IsADirectoryError came out as tracebacks
+    ("missing directory", ("solver:", "output: {file: sub/x.h5}\nsolver:"), [], 2, "output.file"),
+    ("a directory", ("solver:", "output: {file: ..}\nsolver:"), [], 2, "output.file"),
+    ("--out missing directory", None, ["--out", "nodir/x.h5"], 2, "--out"),
+    ("--out a directory", None, ["--out", "."], 2, "--out"),
+    # the run overwrote the case file with HDF5
+    ("output.file is the case", ("solver:", "output: {file: case.yaml}\nsolver:"), [], 2,
+     "output.file"),
+    ("--out is the case", None, ["--out", "case.yaml"], 2, "--out"),
+    ("control character", ("solver:", 'output: {file: "a\\x01.h5"}\nsolver:'), [], 2,
+     "output.file"),
+])
+def test_output_is_written_only_where_asked(fuzz_root, what, edit, argv, code, key):
+    work = fuzz_root / "w"
+    work.mkdir()
+    text = _edit("modal_blocks", *edit) if edit else BASES["modal_blocks"]
+    (work / "case.yaml").write_text(text, encoding="utf-8")
+    got, out, err = cli(["case.yaml", "--quiet", *argv], cwd=work)
+    assert got == code, err
+    assert "Traceback" not in err
+    assert (work / "case.yaml").read_text(encoding="utf-8") == text
+    if code == 0:
+        assert listing(work) == sorted(["case.yaml", key])
+    else:
+        assert listing(work) == ["case.yaml"]
+        assert len(err.strip().splitlines()) == 1 and key in err, err
+        if key != "--out":
+            assert MESSAGE.match(err.strip()), err
+    assert not os.listdir(tempfile.gettempdir())
+
+
+# -------------------------------------------------- the real command line ---
+
+def _command(args, cwd, temp):
+    """python -m rbsm_dyn ARGS in cwd, with its own empty temporary directory."""
+    env = dict(os.environ, TMPDIR=str(temp), NUMBA_NUM_THREADS="1")
+    env.pop("RBSM_PROGRESS", None)
+    return subprocess.run([sys.executable, "-m", "rbsm_dyn", *args], cwd=cwd, env=env,
+                          capture_output=True, text=True, timeout=300)
+
+
+@pytest.fixture
+def sandbox(tmp_path):
+    work, temp = tmp_path / "work", tmp_path / "temp"
+    work.mkdir()
+    temp.mkdir()
+    return work, temp
+
+
+def _one_line_error(proc, key):
+    assert proc.returncode == 2, proc.stderr
+    assert "Traceback" not in proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1, proc.stderr
+    m = MESSAGE.match(lines[0])
+    assert m and m.group("line") != "?", proc.stderr
+    assert m.group("path").startswith(key), proc.stderr
+    return m
+
+
+@pytest.mark.parametrize("what, raw, key", [
+    ("non-UTF-8 bytes", BASES["modal_blocks"].replace("fz-modal", "fz-mod\xe9l").encode("latin-1"),
+     "<document>"),
+    ("YAML syntax error", _edit("modal_blocks", "modes: 3}", "modes: [3}").encode(), "<document>"),
+    # ruamel's ReusedAnchorWarning went to stderr before the message
+    ("reused anchor", _edit("modal_blocks", "solver: {mode: modal, modes: 3}",
+                            "solver: {mode: modal, modes: &n 3}\nx: &n 1").encode(), "x"),
+])
+def test_command_line_bad_bytes(sandbox, what, raw, key):
+    work, temp = sandbox
+    (work / "case.yaml").write_bytes(raw)
+    for command in (["check"], []):
+        proc = _command([*command, "case.yaml", "--quiet"], work, temp)
+        m = _one_line_error(proc, key)
+        assert m.group("file") == "case.yaml"
+    if what == "non-UTF-8 bytes":
+        assert "UTF-8" in proc.stderr and ":1: " in proc.stderr
+    assert listing(work) == ["case.yaml"] and not os.listdir(temp)
+
+
+def test_command_line_python_tags_construct_nothing(sandbox):
+    """Tags that would build Python objects (PyYAML's unsafe loader) are
+    refused before anything is constructed: no command runs, no file appears."""
+    work, temp = sandbox
+    marker = work / "pwned"
+    tags = [f"!!python/object/apply:os.system ['touch {marker}']",
+            f"!!python/object/new:os.system ['touch {marker}']",
+            "!!python/name:os.system", f"!!python/object:subprocess.Popen {{args: [touch, {marker}]}}",
+            "!!python/module:os"]
+    for i, tag in enumerate(tags):
+        text = _edit("modal_blocks", "name: fz-modal", f"name: {tag}")
+        (work / "case.yaml").write_text(text, encoding="utf-8")
+        proc = _command(["case.yaml", "--quiet"], work, temp)
+        _one_line_error(proc, "name")
+        assert "not allowed" in proc.stderr
+        assert not marker.exists()
+    assert listing(work) == ["case.yaml"] and not os.listdir(temp)
+
+
+def test_command_line_writes_only_the_output_asked_for(sandbox):
+    """A run writes its history where --out says (or output.file in the
+    working directory) and nothing else: not in the working directory, not
+    next to the case, not in the temporary directory."""
+    work, temp = sandbox
+    cases = work / "cases"
+    cases.mkdir()
+    (cases / "case.yaml").write_text(BASES["dynamic_blocks"], encoding="utf-8")
+    (work / "results").mkdir()
+    proc = _command(["cases/case.yaml", "--quiet", "--max-steps", "3",
+                     "--out", "results/run.h5"], work, temp)
+    assert proc.returncode == 0, proc.stderr
+    assert listing(work) == ["cases", "cases/case.yaml", "results", "results/run.h5"]
+    assert not os.listdir(temp)
+    assert rbsm_dyn.open_history(work / "results" / "run.h5").status == "completed"
+    # without --out: output.file (fz-dyn.h5) in the working directory
+    proc = _command(["cases/case.yaml", "--quiet", "--max-steps", "3"], work, temp)
+    assert proc.returncode == 0, proc.stderr
+    assert listing(work) == ["cases", "cases/case.yaml", "fz-dyn.h5", "results",
+                             "results/run.h5"]
+    # check and info write nothing
+    for command in ("check", "info"):
+        proc = _command([command, "cases/case.yaml"], work, temp)
+        assert proc.returncode == 0, proc.stderr
+    assert listing(work) == ["cases", "cases/case.yaml", "fz-dyn.h5", "results",
+                             "results/run.h5"]
+    assert not os.listdir(temp)
