@@ -36,7 +36,7 @@ def size_of(text):
 
 @pytest.mark.parametrize("interval, end_time", [
     ("1.0e-5", "2.0e-4"),       # 22 frames: the file is mostly chunk allocation
-    ("2.0e-6", "4.0e-4"),       # 217 frames: the frames count
+    ("2.0e-6", "2.0e-4"),       # 101 frames: the frame count
 ])
 def test_info_counts_steps_frames_and_output_size_match_a_run(tmp_path, capsys,
                                                                interval, end_time):
