@@ -918,7 +918,8 @@ def history_to_xarray(h: "History"):
         if not isinstance(v, np.ndarray) or v.ndim == 0 or v.dtype == object:
             continue
         if "/geometry/" in p or p.startswith("springs/faces") or \
-                p.startswith("springs/boundary_faces") or p.startswith("modes"):
+                p.startswith("springs/boundary_faces") or p.startswith("modes") or \
+                p.startswith("checkpoint"):
             continue
         dims = _xr_dims(p, v.shape, N, S)
         if dims is None:
