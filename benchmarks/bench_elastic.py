@@ -93,12 +93,12 @@ def split_passes(model, state, n_steps):
                             s.body_rot,
                             s.body_dq, s.body_wrench, s.body_support, False, s.spring_force)
         t1 = time.perf_counter()
-        dynamic_body_pass(k * s.dt, s.dt, s.body_wrench, m.body_mass,
+        dynamic_body_pass(k * s.dt, s.dt, s.body_wrench, s.body_support, m.body_mass,
                           m.body_inertia, s.body_pos, m.body_pos0, s.body_quat, m.body_quat0,
                           s.body_vel, s.body_angmom, s.body_rot, s.body_dq, m.body_fext,
                           m.body_mext, m.body_load_hist, m.gravity, 0.0, m.dof_kind,
                           m.dof_value, m.dof_hist, m.hist_ptr, m.hist_t, m.hist_a,
-                          s.body_work, s.body_damp)
+                          s.body_work, s.body_damp, s.body_reaction)
         t2 = time.perf_counter()
         t_spring += t1 - t0
         t_body += t2 - t1

@@ -126,18 +126,18 @@ def rotate_body(i, dt, inertia, body_quat, body_angmom, body_rot):
 
 
 @nb.njit(parallel=True, **JIT)
-def dynamic_body_pass(t, dt, body_wrench,
+def dynamic_body_pass(t, dt, body_wrench, body_support,
                       body_mass, body_inertia, body_pos, body_pos0, body_quat, body_quat0,
                       body_vel, body_angmom, body_rot, body_dq,
                       body_fext, body_mext, body_load_hist, gravity, damping_alpha,
                       dof_kind, dof_value, dof_hist, hist_ptr, hist_t, hist_a,
-                      body_work, body_damp):
+                      body_work, body_damp, body_reaction):
     """One leapfrog step of every body, from forces at time t to t + dt.
 
     Accumulates per body the work of external loads and constraints
     (`body_work` [J]) and the energy dissipated by mass-proportional damping
-    (`body_damp` [J]).  Reactions are computed at output steps only
-    (synchronized_momenta)."""
+    (`body_damp` [J]); `body_reaction` gets the force of supports and
+    constraints on the body at time t [N]."""
     n = body_mass.shape[0]
     c = 0.5 * damping_alpha * dt
     for i in nb.prange(n):
@@ -154,6 +154,7 @@ def dynamic_body_pass(t, dt, body_wrench,
             if kind == FREE:
                 # mass-proportional damping, central difference (c = α dt / 2)
                 v_new = ((1.0 - c) * v_old + dt * f / m) / (1.0 + c)
+                reaction = body_support[i, k]
             else:
                 if kind == FIXED:
                     v_new = 0.0
@@ -166,12 +167,14 @@ def dynamic_body_pass(t, dt, body_wrench,
                     v_new = (target - body_pos[i, k]) / dt
                 # force the constraint adds so that m a = f + r
                 r = m * (v_new - v_old) / dt - f
+                reaction = body_support[i, k] + r
                 work += r * v_new * dt
             work += fext * v_new * dt
             va = 0.5 * (v_old + v_new)
             damp += damping_alpha * m * va * va * dt
             body_vel[i, k] = v_new
             body_pos[i, k] += v_new * dt
+            body_reaction[i, k] = reaction
         # rotation: kick world L, constrain, free rotor
         L = body_angmom[i]
         inertia = body_inertia[i]
@@ -205,7 +208,7 @@ def run_dynamic(n_steps, step0, dt, inelastic,
                 body_vel, body_angmom, body_rot, body_dq,
                 body_fext, body_mext, body_load_hist, gravity, damping_alpha,
                 dof_kind, dof_value, dof_hist, hist_ptr, hist_t, hist_a,
-                body_work, body_damp):
+                body_work, body_damp, body_reaction):
     """Advance n_steps explicit steps inside compiled code.  Step order:
     springs at x_n (summed into the body wrenches) → bodies kick, drift.
     The spring kernel is the elastic one unless `inelastic` (yield,
@@ -224,12 +227,12 @@ def run_dynamic(n_steps, step0, dt, inelastic,
             elastic_spring_pass(phase_ptr, group_ptr, spring_bodies, spring_arm_a,
                                 spring_arm_b, spring_frame0, spring_n0, spring_k, body_pos,
                                 body_rot, body_dq, body_wrench, body_support, False, spring_force)
-        dynamic_body_pass(t, dt, body_wrench,
+        dynamic_body_pass(t, dt, body_wrench, body_support,
                           body_mass, body_inertia, body_pos, body_pos0, body_quat,
                           body_quat0, body_vel, body_angmom, body_rot, body_dq,
                           body_fext, body_mext, body_load_hist, gravity, damping_alpha,
                           dof_kind, dof_value, dof_hist, hist_ptr, hist_t, hist_a,
-                          body_work, body_damp)
+                          body_work, body_damp, body_reaction)
     return step0 + n_steps
 
 

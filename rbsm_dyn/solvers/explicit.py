@@ -81,7 +81,7 @@ def advance(model, state, n_steps, damping_alpha=0.0):
         m.body_quat0, state.body_vel, state.body_angmom, state.body_rot, state.body_dq,
         m.body_fext, m.body_mext, m.body_load_hist, m.gravity, damping_alpha,
         m.dof_kind, m.dof_value, m.dof_hist, m.hist_ptr, m.hist_t, m.hist_a,
-        state.body_work, state.body_damp)
+        state.body_work, state.body_damp, state.body_reaction)
 
 
 def synchronize(model, state):
