@@ -232,13 +232,13 @@ def _first_difference(a, b, path=()):
                 return d
         return None
     if isinstance(a, list) and isinstance(b, list):
-        if len(a) != len(b):
-            return path
+        if len(a) != len(b) or not any(isinstance(x, (dict, list)) for x in a + b):
+            return None if a == b else path
         for j, (x, y) in enumerate(zip(a, b)):
             d = _first_difference(x, y, path + (j,))
             if d is not None:
                 return d
-        return None
+        return None if a == b else path
     return None if a == b else path
 
 
