@@ -47,6 +47,8 @@ KeyPath = tuple  # a key path: str keys and int list indices
 
 MAX_CELLS = 5e6          # a mesh with more cells than this is refused
 NUMBER_LIMIT = 1e30      # every number is 0 or of magnitude in [1/limit, limit]
+FAR_CELLS_VORONOI = 1e4  # the domain lies within this many cell sizes of the origin
+FAR_CELLS_BLOCKS = 1e8   # (round-off; see _check)
 DOCUMENT = "<document>"  # key path shown for errors about the whole file
 
 
@@ -814,6 +816,18 @@ def _check(case: Case) -> None:
         if cells > MAX_CELLS:
             raise err(("mesh", "divisions"), f"too many cells: {cells} "
                       f"(at most {MAX_CELLS:g})")
+    # Round-off: coordinates far from the origin leave too few digits for
+    # the cells (qhull fails beyond ~1e5 Voronoi cell sizes; blocks last longer).
+    if m.kind == "voronoi":
+        h, reach = m.size, FAR_CELLS_VORONOI
+    else:
+        h, reach = min((x1 - x0) / m.divisions[0], (y1 - y0) / m.divisions[1],
+                       (z1 - z0) / m.divisions[2]), FAR_CELLS_BLOCKS
+    far = max(abs(c) for corner in case.domain.box for c in corner)
+    if far > reach * h:
+        raise err(("domain", "box"), f"too far from the origin for cells of {h:.3g}: "
+                  f"{far:.3g} away, at most {reach:g} cell sizes (the mesh would lose "
+                  "precision); move the domain nearer to the origin")
 
     if not case.materials:
         raise err(("materials",), "at least one material is required")

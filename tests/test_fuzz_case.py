@@ -413,7 +413,8 @@ def mutate(draw, data, log):
         lst = _get(data, path)
         lst.append(copy.deepcopy(draw(st.sampled_from(lst))))
     elif kind == "huge":
-        what = draw(st.sampled_from(["size", "divisions", "domain", "history", "list"]))
+        what = draw(st.sampled_from(["size", "divisions", "domain", "history", "list",
+                                     "offset"]))
         mesh = data.get("mesh")
         if not isinstance(mesh, dict):
             mesh = data["mesh"] = {"kind": "voronoi"}
@@ -428,6 +429,11 @@ def mutate(draw, data, log):
             f = draw(st.sampled_from([1e3, 1e6, 1e150, 1e200, 1e-150, 1e-200]))
             lo, hi = _domain_box(data)
             data["domain"] = {"box": [[c * f for c in lo], [c * f for c in hi]]}
+            path = ("domain", "box")
+        elif what == "offset":        # far from the origin: round-off in the mesh
+            f = draw(st.sampled_from([1e3, 1e8, 1e12, 1e15, 1e17]))
+            lo, hi = _domain_box(data)
+            data["domain"] = {"box": [[c + f for c in lo], [c + f for c in hi]]}
             path = ("domain", "box")
         elif what == "history":
             n = draw(st.sampled_from([1, 2, 1000]))
@@ -510,7 +516,8 @@ BOMB = ("a0: &a0 [x, x, x, x, x, x, x, x, x, x]\n"
 def text_mutate(draw, raw, marker, log):
     kind = draw(st.sampled_from(["bytes", "syntax", "delete", "truncate", "tag", "bomb",
                                  "dup_line", "tab", "encoding", "crlf", "bom", "empty",
-                                 "documents", "anchor", "tag", "bytes", "syntax"]))
+                                 "documents", "anchor", "tag", "bytes", "syntax", "deep",
+                                 "long"]))
     pos = draw(st.integers(0, len(raw)))
     if kind == "bytes":
         ins = draw(st.one_of(st.sampled_from(BAD_BYTES), st.binary(min_size=1, max_size=4)))
@@ -553,6 +560,14 @@ def text_mutate(draw, raw, marker, log):
     elif kind == "empty":
         raw = draw(st.sampled_from([b"", b"\n", b"   \n", b"# c\n", b"---\n", b"~\n", b"[]\n",
                                     b"42\n", b"'x'\n", b"- a\n", b"null\n"]))
+    elif kind == "deep":            # nested flow lists at a value
+        values = [m.end() for m in re.finditer(rb": ", raw)]
+        at = draw(st.sampled_from(values)) if values else 0
+        n = draw(st.sampled_from([10, 70, 400, 3000]))
+        raw = raw[:at] + b"[" * n + b"1" + b"]" * n + b"\n" + \
+            raw[raw.find(b"\n", at) + 1 or len(raw):]
+    elif kind == "long":            # a long value (100 kB)
+        raw = raw + b"description: " + b"x" * 100_000 + b"\n"
     elif kind == "documents":
         raw = raw + b"---\n" + raw
     else:  # anchor: a legitimate alias, e.g. one material reused
@@ -842,6 +857,19 @@ REGRESSIONS = [
      .encode(), "materials.glass.density"),
     ("young 1e300", _edit("modal_blocks", "young: 200.0e9", "young: 1.0e+300").encode(),
      "materials.steel.young"),
+    # a domain far from the origin: the Voronoi mesh failed (RuntimeError "failed to
+    # tile the box" at 1e4 m, UFuncTypeError at 1e6 m for cells of 25 mm) ...
+    ("voronoi 1e4 m away", _edit("static_voronoi", "[[0, 0, 0], [0.2, 0.05, 0.05]]",
+                                 "[[1.0e+4, 0, 0], [10000.2, 0.05, 0.05]]").encode(),
+     "domain.box"),
+    ("voronoi 1e6 m away", _edit("static_voronoi", "[[0, 0, 0], [0.2, 0.05, 0.05]]",
+                                 "[[1.0e+6, 1.0e+6, 0], [1000000.2, 1000000.05, 0.05]]").encode(),
+     "domain.box"),
+    # ... and blocks 1e15 m away were built from round-off (RuntimeWarnings, then
+    # "solver.modes: SVD did not converge" named the wrong key)
+    ("blocks 1e15 m away", _edit("modal_blocks", "[[0, 0, 0], [1.0, 0.1, 0.1]]",
+                                 "[[1.0e+15, 0, 0], [1000000000000001.0, 0.1, 0.1]]").encode(),
+     "domain.box"),
 ]
 
 
