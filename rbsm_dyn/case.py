@@ -61,7 +61,7 @@ def format_path(path: KeyPath) -> str:
         if isinstance(part, int) and not isinstance(part, bool):
             out += f"[{part}]"
         else:
-            text = str(part)
+            text = _show(part) if part is None or isinstance(part, bool) else str(part)
             if not text or not text.isprintable():   # '', tabs, line breaks...
                 text = repr(text)
             out += ("." if out else "") + text
@@ -132,7 +132,7 @@ class _Node(BaseModel):
                 if key not in allowed:
                     raise PydanticCustomError(
                         "unknown_key", "{message}",
-                        {"key": key, "message": f"unknown key {key!r} "
+                        {"key": key, "message": f"unknown key {_show(key)} "
                          f"(allowed: {', '.join(allowed)})"})
         return data
 

@@ -681,8 +681,9 @@ def check_bad(code, err, data, text_mutated, what):
         assert _resolves(data, _split_path(path)), what
 
 
-STATS = {"examples": 0, "checked": 0, "exit2": 0, "ok": 0, "runs": 0, "infos": 0, "failed_runs": 0,
-         "text": 0}
+# examples: bodies run; checked: examples that went through fuzz_one to the end
+STATS = {"examples": 0, "checked": 0, "exit2": 0, "ok": 0, "runs": 0, "infos": 0,
+         "failed_runs": 0, "text": 0}
 
 
 def fuzz_one(base, data, raw, log, run_kind, root, marker):
@@ -979,7 +980,7 @@ def _one_line_error(proc, key):
     # ruamel's ReusedAnchorWarning went to stderr before the message
     ("reused anchor", _edit("modal_blocks", "solver: {mode: modal, modes: 3}",
                             "solver: {mode: modal, modes: &n 3}\nx: &n 1").encode(), "x"),
-])
+], ids=["non-UTF-8", "syntax", "reused anchor"])
 def test_command_line_bad_bytes(sandbox, what, raw, key):
     work, temp = sandbox
     (work / "case.yaml").write_bytes(raw)
