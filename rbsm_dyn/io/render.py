@@ -176,7 +176,7 @@ def render(path, *, frame: int = -1, out=None, scale: float | None = None,
     aspect = window_size[0] / window_size[1]
     pl.camera.focal_point = 0.5 * (lo + hi)
     pl.camera.position = 0.5 * (lo + hi) + direction * size * 3
-    pl.camera.parallel_scale = 0.5 * max(hgt / 0.72, w / (0.78 * aspect))
+    pl.camera.parallel_scale = 0.5 * max(hgt / 0.72, w / (0.72 * aspect))
     out.parent.mkdir(parents=True, exist_ok=True)
     pl.screenshot(str(out))
     pl.close()
