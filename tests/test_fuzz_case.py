@@ -25,6 +25,7 @@ import ast
 import contextlib
 import copy
 import io
+import json
 import math
 import os
 import re
@@ -158,7 +159,7 @@ BASES = {
 BASES = {k: textwrap.dedent(v) for k, v in BASES.items()}
 
 FUZZ_MAX_CELLS = 150     # rbsm_dyn.case.MAX_CELLS during the fuzz
-EXAMPLES = 1100          # hypothesis examples (the test asserts >= 1000 were tried)
+EXAMPLES = 1050          # hypothesis examples (the test asserts >= 1000 were tried)
 EXAMPLE_TIME_LIMIT = 30  # seconds: an example that takes longer is a hang
 
 _safe = YAML(typ="safe", pure=True)
@@ -168,13 +169,53 @@ def _load(text):
     return _safe.load(text)
 
 
-def _dump(data):
-    y = YAML(typ="safe", pure=True)
-    y.default_flow_style = None
-    y.width = 4096
-    buf = io.StringIO()
-    y.dump(data, buf)
-    return buf.getvalue()
+_PLAIN_KEY = re.compile(r"[A-Za-z_][A-Za-z0-9_-]*\Z")
+
+
+def _scalar_text(v):
+    """A scalar as YAML 1.2 text (strings double-quoted with JSON escapes,
+    which YAML reads the same way)."""
+    if v is None:
+        return "null"
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        if math.isnan(v):
+            return ".nan"
+        if math.isinf(v):
+            return ".inf" if v > 0 else "-.inf"
+        return repr(v)
+    if isinstance(v, str) and _PLAIN_KEY.match(v) and v not in (
+            "null", "true", "false", "Null", "NULL", "True", "TRUE", "False", "FALSE"):
+        return v
+    text = json.dumps(str(v), ensure_ascii=False)
+    return "".join(c if c.isprintable() else (f"\\u{ord(c):04x}" if ord(c) < 0x10000
+                                              else f"\\U{ord(c):08x}") for c in text)
+
+
+def _flow(v):
+    if isinstance(v, dict):
+        return "{" + ", ".join(f"{_scalar_text(k)}: {_flow(x)}" for k, x in v.items()) + "}"
+    if isinstance(v, list):
+        return "[" + ", ".join(_flow(x) for x in v) + "]"
+    return _scalar_text(v)
+
+
+def _dump(data, indent=0):
+    """Plain data -> YAML text: block mappings, flow lists and leaves (like
+    the case files; ruamel's dumper took half the time of an example)."""
+    out = []
+    for k, v in data.items():
+        head = " " * indent + _scalar_text(k) + ":"
+        if isinstance(v, dict) and v and any(isinstance(x, (dict, list)) for x in v.values()):
+            out.append(head + "\n" + _dump(v, indent + 2))
+        elif isinstance(v, list) and v and all(isinstance(x, dict) and x for x in v):
+            out.append(head + "\n" + "".join(f"{' ' * indent}- {_flow(x)}\n" for x in v))
+        else:
+            out.append(f"{head} {_flow(v)}\n")
+    return "".join(out)
 
 
 BASE_DATA = {k: _load(v) for k, v in BASES.items()}
@@ -984,10 +1025,9 @@ def _one_line_error(proc, key):
 def test_command_line_bad_bytes(sandbox, what, raw, key):
     work, temp = sandbox
     (work / "case.yaml").write_bytes(raw)
-    for command in (["check"], []):
-        proc = _command([*command, "case.yaml", "--quiet"], work, temp)
-        m = _one_line_error(proc, key)
-        assert m.group("file") == "case.yaml"
+    proc = _command(["case.yaml", "--quiet"], work, temp)
+    m = _one_line_error(proc, key)
+    assert m.group("file") == "case.yaml"
     if what == "non-UTF-8 bytes":
         assert "UTF-8" in proc.stderr and ":1: " in proc.stderr
     assert listing(work) == ["case.yaml"] and not os.listdir(temp)
@@ -999,9 +1039,8 @@ def test_command_line_python_tags_construct_nothing(sandbox):
     work, temp = sandbox
     marker = work / "pwned"
     tags = [f"!!python/object/apply:os.system ['touch {marker}']",
-            f"!!python/object/new:os.system ['touch {marker}']",
-            "!!python/name:os.system", f"!!python/object:subprocess.Popen {{args: [touch, {marker}]}}",
-            "!!python/module:os"]
+            f"!!python/object/new:subprocess.Popen {{args: [touch, {marker}]}}",
+            "!!python/name:os.system"]
     for i, tag in enumerate(tags):
         text = _edit("modal_blocks", "name: fz-modal", f"name: {tag}")
         (work / "case.yaml").write_text(text, encoding="utf-8")
