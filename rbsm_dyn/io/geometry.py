@@ -36,20 +36,9 @@ FACE_STATE_NAMES = {0: "elastic", 1: "yielded", 2: "broken", 3: "contact"}
 def quat_to_matrix(q: np.ndarray) -> np.ndarray:
     """Rotation matrices (..., 3, 3) of quaternions (..., 4), scalar first
     (w, x, y, z); the quaternions are normalised first."""
+    from ..physics.rotation import quat_matrix_np
     q = np.asarray(q, dtype=np.float64)
-    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
-    w, x, y, z = np.moveaxis(q, -1, 0)
-    R = np.empty(q.shape[:-1] + (3, 3))
-    R[..., 0, 0] = 1 - 2 * (y * y + z * z)
-    R[..., 0, 1] = 2 * (x * y - w * z)
-    R[..., 0, 2] = 2 * (x * z + w * y)
-    R[..., 1, 0] = 2 * (x * y + w * z)
-    R[..., 1, 1] = 1 - 2 * (x * x + z * z)
-    R[..., 1, 2] = 2 * (y * z - w * x)
-    R[..., 2, 0] = 2 * (x * z - w * y)
-    R[..., 2, 1] = 2 * (y * z + w * x)
-    R[..., 2, 2] = 1 - 2 * (x * x + y * y)
-    return R
+    return quat_matrix_np(q / np.linalg.norm(q, axis=-1, keepdims=True))
 
 
 def rotation_vectors(q: np.ndarray, q0: np.ndarray) -> np.ndarray:
