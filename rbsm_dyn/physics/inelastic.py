@@ -35,8 +35,7 @@ from .laws import (BROKEN, CONTACT, P_COH, P_CRIT, P_EPSCR, P_FT, P_GF, P_MU,
 from .laws.contact import CONTACT_OFF, contact_traction
 from .laws.plastic import plastic_return
 from .laws.rupture import SOFTENING, STRAIN, equivalent_strain, softening_damage
-from .springs import (clear_wrenches, deposit_b, flush_a, gap_and_scaled_frame,
-                      serial_pass)
+from .springs import add_wrench, clear_wrenches, flush_a, gap_and_scaled_frame, serial_pass
 
 JIT = dict(cache=True, nogil=True, fastmath=False, error_model="numpy")
 
@@ -61,10 +60,10 @@ def _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
     s1 = group_ptr[g + 1]
     if s1 == s0:
         return
-    cur = spring_bodies[s0, 0]
+    cur = np.uint64(spring_bodies[s0, 0])
     w0 = w1 = w2 = w3 = w4 = w5 = 0.0
     for s in range(s0, s1):
-        (d0, d1, d2, m0, m1, m2,
+        (d0, d1, d2, la0, la1, la2, lb0, lb1, lb2,
          G00, G01, G02, G10, G11, G12, G20, G21, G22, n2) = gap_and_scaled_frame(
             s, spring_bodies, spring_arm_a, spring_arm_b, spring_frame0,
             body_pos, body_rot, body_dq)
@@ -160,23 +159,9 @@ def _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
         f0 = F00 * fn + F01 * fs + F02 * ft
         f1 = F10 * fn + F11 * fs + F12 * ft
         f2 = F20 * fn + F21 * fs + F22 * ft
-        ba = spring_bodies[s, 0]
-        if ba != cur:
-            flush_a(cur, w0, w1, w2, w3, w4, w5, body_wrench)
-            cur = ba
-            w0 = w1 = w2 = w3 = w4 = w5 = 0.0
-        # force f at m on body a: moment (m − x_a) × f (springs.py)
-        r0 = m0 - body_pos[ba, 0]
-        r1 = m1 - body_pos[ba, 1]
-        r2 = m2 - body_pos[ba, 2]
-        w0 += f0
-        w1 += f1
-        w2 += f2
-        w3 += r1 * f2 - r2 * f1
-        w4 += r2 * f0 - r0 * f2
-        w5 += r0 * f1 - r1 * f0
-        deposit_b(s, ba, f0, f1, f2, m0, m1, m2, spring_bodies, body_pos, body_wrench,
-                  body_support)
+        cur, w0, w1, w2, w3, w4, w5 = add_wrench(
+            s, np.uint64(spring_bodies[s, 0]), cur, w0, w1, w2, w3, w4, w5, f0, f1, f2,
+            la0, la1, la2, lb0, lb1, lb2, spring_bodies, body_wrench, body_support)
         if store:
             spring_force[s, 0] = f0
             spring_force[s, 1] = f1

@@ -19,12 +19,21 @@ _COS = tuple((-1.0) ** k / math.factorial(2 * k) for k in range(10))
 
 @nb.njit(inline="always", **JIT)
 def sincos(x):
-    """(sin x, cos x) to round-off without a libm call for |x| ≤ 0.5, where
-    the Taylor series to x^19 / x^18 leaves a remainder below
-    0.5^20/20! ≈ 4e-25 (Abramowitz & Stegun 4.3.65-66); libm beyond."""
+    """(sin x, cos x) to round-off without a libm call for |x| ≤ 0.5
+    (Taylor series, Abramowitz & Stegun 4.3.65-66); libm beyond.
+    |x| ≤ 1/32 (a step's rotation in practice): to x^7 / x^6, remainders
+    below (1/32)^8/8! ≈ 2e-17 (relative, under half an ulp); else to
+    x^19 / x^18, remainder below 0.5^20/20! ≈ 4e-25."""
+    z = x * x
+    if abs(x) <= 0.03125:
+        s = _SIN[3]
+        c = _COS[3]
+        for k in range(2, -1, -1):
+            s = s * z + _SIN[k]
+            c = c * z + _COS[k]
+        return x * s, c
     if abs(x) > 0.5:
         return math.sin(x), math.cos(x)
-    z = x * x
     s = _SIN[9]
     c = _COS[9]
     for k in range(8, -1, -1):
@@ -74,19 +83,23 @@ def dlm_free_rotor(q, l0, l1, l2, inertia, h):
     """
     lb0, lb1, lb2 = l0, l1, l2
     q0, q1, q2, q3 = q[0], q[1], q[2], q[3]
+    # step / moment of each sub-rotation, divided once (out of the chain)
+    c0 = 0.5 * h / inertia[0]
+    c1 = 0.5 * h / inertia[1]
+    c2 = h / inertia[2]
     for sub in range(5):
         if sub == 0 or sub == 4:
-            k, dt = 0, 0.5 * h
+            k = 0
         elif sub == 1 or sub == 3:
-            k, dt = 1, 0.5 * h
+            k = 1
         else:
-            k, dt = 2, h
+            k = 2
         if k == 0:
-            phi = lb0 / inertia[0] * dt
+            phi = lb0 * c0
         elif k == 1:
-            phi = lb1 / inertia[1] * dt
+            phi = lb1 * c1
         else:
-            phi = lb2 / inertia[2] * dt
+            phi = lb2 * c2
         # half-angle pair for the quaternion; the full angle by the double-
         # angle identities cos φ = 1 − 2 sin²(φ/2), sin φ = 2 sin(φ/2) cos(φ/2)
         sh, ch = sincos(0.5 * phi)

@@ -27,10 +27,36 @@ JIT = dict(cache=True, nogil=True, fastmath={"contract"}, error_model="numpy")
 
 
 @nb.njit(inline="always", **JIT)
-def gap_and_mid(s, spring_bodies, spring_arm_a, spring_arm_b, body_pos, body_rot, body_dq):
-    """World gap d = p_b − p_a, midpoint m of the material points, and the
-    unnormalised mid rotation increment q = Δq_a ± Δq_b (sign-aligned) with
-    n2 = |q|² of spring s.
+def material_points(s, a, b, spring_arm_a, spring_arm_b, body_pos, body_rot):
+    """World gap d = p_b − p_a of spring s's two material points
+    p = x + R r (bodies a, b as unsigned ids) and the lever arms from the
+    two centres to the midpoint m = (p_a + p_b)/2 at which the spring's
+    force acts: l_a = m − x_a = R_a r_a + d/2, l_b = m − x_b = R_b r_b − d/2
+    (formed from the arms, not from differences of positions, so that a
+    model far from the origin keeps its moments' digits).
+
+    Returns (d0, d1, d2, la0, la1, la2, lb0, lb1, lb2)."""
+    ax, ay, az = spring_arm_a[s, 0], spring_arm_a[s, 1], spring_arm_a[s, 2]
+    bx, by, bz = spring_arm_b[s, 0], spring_arm_b[s, 1], spring_arm_b[s, 2]
+    Ra = body_rot[a]
+    Rb = body_rot[b]
+    ua0 = Ra[0, 0] * ax + Ra[0, 1] * ay + Ra[0, 2] * az
+    ua1 = Ra[1, 0] * ax + Ra[1, 1] * ay + Ra[1, 2] * az
+    ua2 = Ra[2, 0] * ax + Ra[2, 1] * ay + Ra[2, 2] * az
+    ub0 = Rb[0, 0] * bx + Rb[0, 1] * by + Rb[0, 2] * bz
+    ub1 = Rb[1, 0] * bx + Rb[1, 1] * by + Rb[1, 2] * bz
+    ub2 = Rb[2, 0] * bx + Rb[2, 1] * by + Rb[2, 2] * bz
+    d0 = (body_pos[b, 0] - body_pos[a, 0]) + (ub0 - ua0)
+    d1 = (body_pos[b, 1] - body_pos[a, 1]) + (ub1 - ua1)
+    d2 = (body_pos[b, 2] - body_pos[a, 2]) + (ub2 - ua2)
+    return (d0, d1, d2, ua0 + 0.5 * d0, ua1 + 0.5 * d1, ua2 + 0.5 * d2,
+            ub0 - 0.5 * d0, ub1 - 0.5 * d1, ub2 - 0.5 * d2)
+
+
+@nb.njit(inline="always", **JIT)
+def mid_increment(a, b, body_dq):
+    """Unnormalised mid rotation increment q = Δq_a ± Δq_b (sign-aligned,
+    DESIGN.md §1) of the pair (a, b) and n2 = |q|².
 
     q is not normalised: a rotation by q/|q| is the homogeneous quadratic
     form in q divided by n2, so the kernels need no square root and divide
@@ -38,41 +64,40 @@ def gap_and_mid(s, spring_bodies, spring_arm_a, spring_arm_b, body_pos, body_rot
     chain of every spring made the pass latency-bound,
     benchmarks/results/elastic.txt).
 
-    Returns (d0, d1, d2, m0, m1, m2, q0, q1, q2, q3, n2)."""
-    # body ids are never negative: unsigned skips Numba's wraparound code
-    a = np.uint64(spring_bodies[s, 0])
-    b = np.uint64(spring_bodies[s, 1])
-    ax, ay, az = spring_arm_a[s, 0], spring_arm_a[s, 1], spring_arm_a[s, 2]
-    bx, by, bz = spring_arm_b[s, 0], spring_arm_b[s, 1], spring_arm_b[s, 2]
-    Ra = body_rot[a]
-    Rb = body_rot[b]
-    pa0 = body_pos[a, 0] + Ra[0, 0] * ax + Ra[0, 1] * ay + Ra[0, 2] * az
-    pa1 = body_pos[a, 1] + Ra[1, 0] * ax + Ra[1, 1] * ay + Ra[1, 2] * az
-    pa2 = body_pos[a, 2] + Ra[2, 0] * ax + Ra[2, 1] * ay + Ra[2, 2] * az
-    pb0 = body_pos[b, 0] + Rb[0, 0] * bx + Rb[0, 1] * by + Rb[0, 2] * bz
-    pb1 = body_pos[b, 1] + Rb[1, 0] * bx + Rb[1, 1] * by + Rb[1, 2] * bz
-    pb2 = body_pos[b, 2] + Rb[2, 0] * bx + Rb[2, 1] * by + Rb[2, 2] * bz
-    # mid rotation increment (DESIGN.md §1), sign-aligned quaternions
+    Returns (q0, q1, q2, q3, n2)."""
     qa0, qa1, qa2, qa3 = body_dq[a, 0], body_dq[a, 1], body_dq[a, 2], body_dq[a, 3]
     qb0, qb1, qb2, qb3 = body_dq[b, 0], body_dq[b, 1], body_dq[b, 2], body_dq[b, 3]
     if qa0 * qb0 + qa1 * qb1 + qa2 * qb2 + qa3 * qb3 < 0.0:
         qb0, qb1, qb2, qb3 = -qb0, -qb1, -qb2, -qb3
     q0, q1, q2, q3 = qa0 + qb0, qa1 + qb1, qa2 + qb2, qa3 + qb3
-    n2 = q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3
-    return (pb0 - pa0, pb1 - pa1, pb2 - pa2,
-            0.5 * (pa0 + pb0), 0.5 * (pa1 + pb1), 0.5 * (pa2 + pb2), q0, q1, q2, q3, n2)
+    return q0, q1, q2, q3, q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3
+
+
+@nb.njit(inline="always", **JIT)
+def gap_and_mid(s, spring_bodies, spring_arm_a, spring_arm_b, body_pos, body_rot, body_dq):
+    """World gap d, lever arms l_a, l_b and the unnormalised mid rotation
+    increment q with n2 = |q|² of spring s (material_points, mid_increment).
+
+    Returns (d0, d1, d2, la0, la1, la2, lb0, lb1, lb2, q0, q1, q2, q3, n2)."""
+    # body ids are never negative: unsigned skips Numba's wraparound code
+    a = np.uint64(spring_bodies[s, 0])
+    b = np.uint64(spring_bodies[s, 1])
+    d0, d1, d2, la0, la1, la2, lb0, lb1, lb2 = material_points(
+        s, a, b, spring_arm_a, spring_arm_b, body_pos, body_rot)
+    q0, q1, q2, q3, n2 = mid_increment(a, b, body_dq)
+    return d0, d1, d2, la0, la1, la2, lb0, lb1, lb2, q0, q1, q2, q3, n2
 
 
 @nb.njit(inline="always", **JIT)
 def gap_and_scaled_frame(s, spring_bodies, spring_arm_a, spring_arm_b, spring_frame0,
                          body_pos, body_rot, body_dq):
-    """World gap d, midpoint m, scaled spring frame G = n2·F (columns n, s, t)
+    """World gap d, lever arms l_a, l_b, scaled spring frame G = n2·F (columns n, s, t)
     and the scale n2 of spring s: the frame is p = q ⊗ q0 with q the
     unnormalised mid increment (gap_and_mid), |p|² = n2, and the homogeneous
     form of the rotation matrix gives G = n2·R(p/|p|).
 
-    Returns (d0, d1, d2, m0, m1, m2, G as 9 scalars row-major, n2)."""
-    (d0, d1, d2, m0, m1, m2, q0, q1, q2, q3, n2) = gap_and_mid(
+    Returns (d0, d1, d2, la0, la1, la2, lb0, lb1, lb2, G as 9 scalars row-major, n2)."""
+    (d0, d1, d2, la0, la1, la2, lb0, lb1, lb2, q0, q1, q2, q3, n2) = gap_and_mid(
         s, spring_bodies, spring_arm_a, spring_arm_b, body_pos, body_rot, body_dq)
     f = spring_frame0[s]
     w, x, y, z = quat_mul(q0, q1, q2, q3, f[0], f[1], f[2], f[3])
@@ -86,15 +111,14 @@ def gap_and_scaled_frame(s, spring_bodies, spring_arm_a, spring_arm_b, spring_fr
     G20 = 2.0 * (x * z - w * y)
     G21 = 2.0 * (y * z + w * x)
     G22 = n2 - 2.0 * (x * x + y * y)
-    return (d0, d1, d2, m0, m1, m2,
+    return (d0, d1, d2, la0, la1, la2, lb0, lb1, lb2,
             G00, G01, G02, G10, G11, G12, G20, G21, G22, n2)
 
 
 @nb.njit(inline="always", **JIT)
-def deposit_b(s, a, f0, f1, f2, m0, m1, m2, spring_bodies, body_pos, body_wrench,
-              body_support):
+def deposit_b(s, a, f0, f1, f2, r0, r1, r2, spring_bodies, body_wrench, body_support):
     """Add the wrench of spring s on body b (force −f at the point m, moment
-    (m − x_b) × (−f)) to b's accumulator; for a support (b is the ground)
+    r × (−f) with the lever arm r = m − x_b) to b's accumulator; for a support (b is the ground)
     add f to body_support[a] instead.  Body a's share is summed by the
     caller while the springs of a run (they are sorted by a, partition.py)."""
     b = np.uint64(spring_bodies[s, 1])
@@ -103,9 +127,6 @@ def deposit_b(s, a, f0, f1, f2, m0, m1, m2, spring_bodies, body_pos, body_wrench
         body_support[a, 1] += f1
         body_support[a, 2] += f2
         return
-    r0 = m0 - body_pos[b, 0]
-    r1 = m1 - body_pos[b, 1]
-    r2 = m2 - body_pos[b, 2]
     body_wrench[b, 0] -= f0
     body_wrench[b, 1] -= f1
     body_wrench[b, 2] -= f2
@@ -123,6 +144,29 @@ def flush_a(a, w0, w1, w2, w3, w4, w5, body_wrench):
     body_wrench[a, 3] += w3
     body_wrench[a, 4] += w4
     body_wrench[a, 5] += w5
+
+
+@nb.njit(inline="always", **JIT)
+def add_wrench(s, a, cur, w0, w1, w2, w3, w4, w5, f0, f1, f2, la0, la1, la2, lb0, lb1, lb2,
+               spring_bodies, body_wrench, body_support):
+    """Book the force f [N] of spring s (acting on body a at the midpoint m,
+    −f on body b; lever arms l_a = m − x_a, l_b = m − x_b) for both bodies.  Body a's share goes into the running sum
+    (w, of body `cur`; flushed when the springs of a new body a start: they
+    are sorted by a, partition.py), body b's straight into its accumulator
+    (deposit_b).  Returns the new (cur, w0..w5)."""
+    if a != cur:
+        flush_a(cur, w0, w1, w2, w3, w4, w5, body_wrench)
+        cur = a
+        w0 = w1 = w2 = w3 = w4 = w5 = 0.0
+    # force f at m on body a: moment l_a × f
+    w0 += f0
+    w1 += f1
+    w2 += f2
+    w3 += la1 * f2 - la2 * f1
+    w4 += la2 * f0 - la0 * f2
+    w5 += la0 * f1 - la1 * f0
+    deposit_b(s, a, f0, f1, f2, lb0, lb1, lb2, spring_bodies, body_wrench, body_support)
+    return cur, w0, w1, w2, w3, w4, w5
 
 
 # below this many springs a spring pass runs its phases serially: the same
@@ -148,31 +192,47 @@ def clear_wrenches(body_wrench, body_support):
 def _elastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
                    spring_frame0, spring_n0, spring_k, body_pos, body_rot, body_dq, body_wrench,
                    body_support, store, spring_force):
-    """The springs of group g, in order (partition.py)."""
+    """The springs of group g, in order (partition.py).
+
+    The spring points of one face follow each other (same a, b and normal):
+    their mid rotation and turned normal are computed once per face."""
     s0 = group_ptr[g]
     s1 = group_ptr[g + 1]
     if s1 == s0:
         return
     cur = np.uint64(spring_bodies[s0, 0])
     w0 = w1 = w2 = w3 = w4 = w5 = 0.0
+    # the face whose q, N are held (none yet: an impossible normal)
+    fa = fb = np.uint64(0)
+    e0 = e1 = e2 = np.nan
+    q0 = q1 = q2 = q3 = n2 = inv = N0 = N1 = N2 = 0.0
     for s in range(np.uint64(s0), np.uint64(s1)):
-        (d0, d1, d2, m0, m1, m2, q0, q1, q2, q3, n2) = gap_and_mid(
-            s, spring_bodies, spring_arm_a, spring_arm_b, body_pos, body_rot, body_dq)
+        # body ids are never negative: unsigned skips Numba's wraparound code
+        a = np.uint64(spring_bodies[s, 0])
+        b = np.uint64(spring_bodies[s, 1])
+        d0, d1, d2, la0, la1, la2, lb0, lb1, lb2 = material_points(
+            s, a, b, spring_arm_a, spring_arm_b, body_pos, body_rot)
+        if (a != fa or b != fb or spring_n0[s, 0] != e0 or spring_n0[s, 1] != e1
+                or spring_n0[s, 2] != e2):
+            fa = a
+            fb = b
+            e0, e1, e2 = spring_n0[s, 0], spring_n0[s, 1], spring_n0[s, 2]
+            q0, q1, q2, q3, n2 = mid_increment(a, b, body_dq)
+            # n2·n = R(q) n0 by the homogeneous rotation formula of the
+            # unnormalised q: (q0² − |v|²) n0 + 2 (v·n0) v + 2 q0 (v × n0)
+            # (v = (q1, q2, q3))
+            cq = q0 * q0 - (q1 * q1 + q2 * q2 + q3 * q3)
+            vn = 2.0 * (q1 * e0 + q2 * e1 + q3 * e2)
+            h0 = 2.0 * q0
+            N0 = cq * e0 + vn * q1 + h0 * (q2 * e2 - q3 * e1)
+            N1 = cq * e1 + vn * q2 + h0 * (q3 * e0 - q1 * e2)
+            N2 = cq * e2 + vn * q3 + h0 * (q1 * e1 - q2 * e0)
+            inv = 1.0 / (n2 * n2)
         # f = F diag(k) Fᵀ d = k_s d + (k_n − k_s) n (n·d) + (k_t − k_s) t (t·d):
-        # the shear pair only needs the normal n = R(q) n0 when k_t = k_s.
-        # n2·n by the homogeneous rotation formula of the unnormalised q:
-        # (q0² − |v|²) n0 + 2 (v·n0) v + 2 q0 (v × n0)   (v = (q1, q2, q3))
-        e0, e1, e2 = spring_n0[s, 0], spring_n0[s, 1], spring_n0[s, 2]
-        cq = q0 * q0 - (q1 * q1 + q2 * q2 + q3 * q3)
-        vn = 2.0 * (q1 * e0 + q2 * e1 + q3 * e2)
-        h0 = 2.0 * q0
-        N0 = cq * e0 + vn * q1 + h0 * (q2 * e2 - q3 * e1)
-        N1 = cq * e1 + vn * q2 + h0 * (q3 * e0 - q1 * e2)
-        N2 = cq * e2 + vn * q3 + h0 * (q1 * e1 - q2 * e0)
+        # the shear pair only needs the normal n when k_t = k_s.
         kn = spring_k[s, 0]
         ks = spring_k[s, 1]
         kt = spring_k[s, 2]
-        inv = 1.0 / (n2 * n2)
         cn = (kn - ks) * inv * (N0 * d0 + N1 * d1 + N2 * d2)
         f0 = ks * d0 + cn * N0
         f1 = ks * d1 + cn * N1
@@ -188,28 +248,15 @@ def _elastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
             f0 += ct * T0
             f1 += ct * T1
             f2 += ct * T2
-        a = np.uint64(spring_bodies[s, 0])
-        if a != cur:
-            flush_a(cur, w0, w1, w2, w3, w4, w5, body_wrench)
-            cur = a
-            w0 = w1 = w2 = w3 = w4 = w5 = 0.0
-        # force f at m on body a: moment (m − x_a) × f
-        r0 = m0 - body_pos[a, 0]
-        r1 = m1 - body_pos[a, 1]
-        r2 = m2 - body_pos[a, 2]
-        w0 += f0
-        w1 += f1
-        w2 += f2
-        w3 += r1 * f2 - r2 * f1
-        w4 += r2 * f0 - r0 * f2
-        w5 += r0 * f1 - r1 * f0
-        deposit_b(s, a, f0, f1, f2, m0, m1, m2, spring_bodies, body_pos, body_wrench,
-                  body_support)
+        cur, w0, w1, w2, w3, w4, w5 = add_wrench(
+            s, a, cur, w0, w1, w2, w3, w4, w5, f0, f1, f2, la0, la1, la2, lb0, lb1, lb2,
+            spring_bodies, body_wrench, body_support)
         if store:
             spring_force[s, 0] = f0
             spring_force[s, 1] = f1
             spring_force[s, 2] = f2
     flush_a(cur, w0, w1, w2, w3, w4, w5, body_wrench)
+
 
 @nb.njit(parallel=True, **JIT)
 def _elastic_phase(lo, hi, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
@@ -258,7 +305,7 @@ def spring_local_gap(spring_bodies, spring_arm_a, spring_arm_b, spring_frame0,
                      body_pos, body_rot, body_dq, out_delta):
     """Local gap δ = (δn, δs, δt) of every spring [m] (output steps only)."""
     for s in nb.prange(spring_bodies.shape[0]):
-        (d0, d1, d2, m0, m1, m2,
+        (d0, d1, d2, la0, la1, la2, lb0, lb1, lb2,
          G00, G01, G02, G10, G11, G12, G20, G21, G22, n2) = gap_and_scaled_frame(
             s, spring_bodies, spring_arm_a, spring_arm_b, spring_frame0,
             body_pos, body_rot, body_dq)
