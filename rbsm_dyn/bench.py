@@ -58,13 +58,14 @@ def headroom(threads):
             out[g] = acc
 
     out = np.zeros(4 * threads)
-    times = {}
-    for nt in (1, threads):
-        numba.set_num_threads(nt)
-        work(10, out)
-        t0 = time.perf_counter()
-        work(2_000_000, out)
-        times[nt] = time.perf_counter() - t0
+    times = {1: float("inf"), threads: float("inf")}
+    work(10, out)
+    for _ in range(3):
+        for nt in (1, threads):
+            numba.set_num_threads(nt)
+            t0 = time.perf_counter()
+            work(2_000_000, out)
+            times[nt] = min(times[nt], time.perf_counter() - t0)
     return times[1] / times[threads]
 
 
@@ -97,38 +98,57 @@ def run(bodies, steps, threads, physics, repeat=3, out=print):
     t_first = time.perf_counter() - t0
     out(f"first call (compile or cache load): {t_first:.2f} s ({numba.threading_layer()} "
         f"threading layer)")
+    walls, cpus, finals = _time_rounds(model, fresh, advance, steps, threads, repeat)
     rows = []
-    finals = []
     for nt in threads:
-        numba.set_num_threads(nt)
-        row, st = _time_loop(model, fresh, advance, steps, nt, physics, repeat, out)
+        row = _report(model, finals[nt], steps, nt, physics, walls[nt], cpus[nt], out)
         row.update(build=t_build, first=t_first)
         rows.append(row)
-        finals.append(st)
+    if len(threads) > 1:
+        t1 = threads[0]
+        for nt in threads[1:]:
+            out(f"speed-up {nt} vs {t1} threads: {min(walls[t1]) / min(walls[nt]):.2f}x (best), "
+                f"{np.median(walls[t1]) / np.median(walls[nt]):.2f}x (median of {repeat})")
     if max(threads) > 1:
         out(f"machine headroom: a trivial parallel loop runs {headroom(max(threads)):.2f}x "
             f"faster on {max(threads)} threads than on 1 right now")
-    for nt, st in zip(threads[1:], finals[1:]):
-        same = all(np.array_equal(getattr(finals[0], k), getattr(st, k))
+    for nt in threads[1:]:
+        same = all(np.array_equal(getattr(finals[threads[0]], k), getattr(finals[nt], k))
                    for k in ("body_pos", "body_quat", "body_vel", "body_angmom"))
         out(f"final state {threads[0]} vs {nt} threads bitwise identical: {'yes' if same else 'NO'}")
     return rows
 
 
-def _time_loop(model, fresh, advance, steps, threads, physics, repeat, out):
-    S, N = model.n_springs, model.n_bodies
-    best = float("inf")
-    cpu = float("inf")
+def _time_rounds(model, fresh, advance, steps, threads, repeat):
+    """Wall and CPU times of `repeat` rounds; each round times every thread
+    count once, in turn, so that a shared machine's slow spells hit all
+    thread counts alike (a spell lasts seconds to minutes)."""
+    import numba
+
+    walls = {nt: [] for nt in threads}
+    cpus = {nt: [] for nt in threads}
+    finals = {}
     for _ in range(repeat):
-        st = fresh()
-        c0 = time.process_time()
-        w0 = time.perf_counter()
-        advance(model, st, steps)
-        best = min(best, time.perf_counter() - w0)
-        cpu = min(cpu, time.process_time() - c0)
+        for nt in threads:
+            numba.set_num_threads(nt)
+            st = fresh()
+            c0 = time.process_time()
+            w0 = time.perf_counter()
+            advance(model, st, steps)
+            walls[nt].append(time.perf_counter() - w0)
+            cpus[nt].append(time.process_time() - c0)
+            finals[nt] = st
+    return walls, cpus, finals
+
+
+def _report(model, st, steps, threads, physics, walls, cpus, out):
+    S, N = model.n_springs, model.n_bodies
+    best = min(walls)
+    cpu = min(cpus)
     ns_s = best / (S * steps) * 1e9
     ns_b = best / (N * steps) * 1e9
-    out(f"loop: best of {repeat}: {best:.3f} s wall, {cpu:.3f} s CPU (all threads) "
+    out(f"loop: {threads} thread(s), best of {len(walls)}: {best:.3f} s wall "
+        f"(median {np.median(walls):.3f} s), {cpu:.3f} s CPU (all threads) "
         f"= {cpu / (S * steps) * 1e9:.1f} CPU ns/spring-step")
     broken = int((st.spring_state >= 2).sum()) if model.inelastic else 0
     yielded = int((st.spring_state == 1).sum()) if model.inelastic else 0
@@ -137,8 +157,8 @@ def _time_loop(model, fresh, advance, steps, threads, physics, repeat, out):
     out(f"bench: bodies={N} springs={S} steps={steps} threads={threads} physics={physics} "
         f"ns_per_spring_step={ns_s:.1f} ns_per_body_step={ns_b:.0f}")
     return dict(bodies=N, springs=S, steps=steps, threads=threads, physics=physics,
-                wall=best, cpu=cpu, ns_spring=ns_s, ns_body=ns_b, yielded=yielded,
-                broken=broken), st
+                wall=best, wall_median=float(np.median(walls)), cpu=cpu, ns_spring=ns_s,
+                ns_body=ns_b, yielded=yielded, broken=broken)
 
 
 def main(argv=None):
@@ -149,7 +169,7 @@ def main(argv=None):
     p.add_argument("--threads", default="1",
                    help="Numba threads, or a comma list timed on one model (default 1)")
     p.add_argument("--physics", choices=sorted(LAWS), default="elastic")
-    p.add_argument("--repeat", type=int, default=3, help="timed runs, best kept (default 3)")
+    p.add_argument("--repeat", type=int, default=3, help="timed rounds (each times every thread count once), best kept (default 3)")
     a = p.parse_args(argv)
     try:
         threads = [int(t) for t in a.threads.split(",")]

@@ -35,7 +35,7 @@ from .laws import (BROKEN, CONTACT, P_COH, P_CRIT, P_EPSCR, P_FT, P_GF, P_MU,
 from .laws.contact import CONTACT_OFF, contact_traction
 from .laws.plastic import plastic_return
 from .laws.rupture import SOFTENING, STRAIN, equivalent_strain, softening_damage
-from .springs import add_wrench, clear_wrenches, flush_a, gap_and_scaled_frame, serial_pass
+from .springs import add_wrench, clear_part, flush_a, gap_and_scaled_frame, serial_pass
 
 JIT = dict(cache=True, nogil=True, fastmath=False, error_model="numpy")
 
@@ -173,8 +173,10 @@ def _inelastic_phase(lo, hi, group_ptr, spring_bodies, spring_arm_a, spring_arm_
                      spring_frame0, spring_k, spring_area, spring_h, spring_law, law_params,
                      body_pos, body_rot, body_dq, body_wrench, body_support,
                      spring_state, spring_dp, spring_kappa, spring_dmg, spring_wp, spring_wf,
-                     store, spring_force):
+                     store, spring_force, parts):
     for g in nb.prange(lo, hi):
+        if g < parts:
+            clear_part(g, parts, body_wrench, body_support)
         _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spring_frame0,
                          spring_k, spring_area, spring_h, spring_law, law_params, body_pos,
                          body_rot, body_dq, body_wrench, body_support, spring_state, spring_dp,
@@ -187,8 +189,10 @@ def _inelastic_phase_serial(lo, hi, group_ptr, spring_bodies, spring_arm_a, spri
                             body_pos, body_rot, body_dq, body_wrench, body_support,
                             spring_state, spring_dp, spring_kappa, spring_dmg, spring_wp,
                             spring_wf,
-                            store, spring_force):
+                            store, spring_force, parts):
     for g in range(lo, hi):
+        if g < parts:
+            clear_part(g, parts, body_wrench, body_support)
         _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spring_frame0,
                          spring_k, spring_area, spring_h, spring_law, law_params, body_pos,
                          body_rot, body_dq, body_wrench, body_support, spring_state, spring_dp,
@@ -203,21 +207,22 @@ def inelastic_spring_pass(phase_ptr, group_ptr, spring_bodies, spring_arm_a, spr
                           spring_wp, spring_wf, store, spring_force):
     """Forces of elastic–plastic, rupturing and contact springs (see module),
     summed into the bodies' wrenches in the schedule of partition.py;
-    `store`: also write each spring's force (output steps)."""
-    clear_wrenches(body_wrench, body_support)
+    `store`: also write each spring's force (output steps).  Phase 0's
+    groups first zero their parts' accumulators (springs.clear_part)."""
+    parts = phase_ptr[1]
     if serial_pass(spring_bodies.shape[0]):
         _inelastic_phase_serial(0, phase_ptr[phase_ptr.shape[0] - 1], group_ptr, spring_bodies,
                                 spring_arm_a, spring_arm_b, spring_frame0, spring_k, spring_area,
                                 spring_h, spring_law, law_params, body_pos, body_rot, body_dq,
                                 body_wrench, body_support, spring_state, spring_dp, spring_kappa,
-                                spring_dmg, spring_wp, spring_wf, store, spring_force)
+                                spring_dmg, spring_wp, spring_wf, store, spring_force, parts)
         return
     for ph in range(phase_ptr.shape[0] - 1):
         _inelastic_phase(phase_ptr[ph], phase_ptr[ph + 1], group_ptr, spring_bodies,
                          spring_arm_a, spring_arm_b, spring_frame0, spring_k, spring_area,
                          spring_h, spring_law, law_params, body_pos, body_rot, body_dq,
                          body_wrench, body_support, spring_state, spring_dp, spring_kappa,
-                         spring_dmg, spring_wp, spring_wf, store, spring_force)
+                         spring_dmg, spring_wp, spring_wf, store, spring_force, parts)
 
 
 def inelastic_strain_energy(spring_k, delta, spring_state, spring_dp, spring_dmg):

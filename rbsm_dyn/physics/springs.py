@@ -182,10 +182,21 @@ def serial_pass(n_springs):
     return n_springs < SERIAL_SPRINGS
 
 
-@nb.njit(**JIT)
-def clear_wrenches(body_wrench, body_support):
-    body_wrench[:] = 0.0
-    body_support[:] = 0.0
+@nb.njit(inline="always", **JIT)
+def clear_part(p, parts, body_wrench, body_support):
+    """Zero the accumulators of the bodies of part p (bodies i with
+    i·parts // N = p, partition.py), by the thread that runs phase 0's group
+    p: the first to add to them in a pass, and the one whose cache they
+    stay in (a serial clear of all bodies made every other thread fetch its
+    bodies' lines from the clearing core)."""
+    n = body_wrench.shape[0] - 1   # the last row is the ground's
+    i0 = (p * n + parts - 1) // parts
+    i1 = ((p + 1) * n + parts - 1) // parts
+    for i in range(i0, i1):
+        for k in range(6):
+            body_wrench[i, k] = 0.0
+        for k in range(3):
+            body_support[i, k] = 0.0
 
 
 @nb.njit(inline="always", **JIT)
@@ -261,8 +272,10 @@ def _elastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
 @nb.njit(parallel=True, **JIT)
 def _elastic_phase(lo, hi, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
                    spring_frame0, spring_n0, spring_k, body_pos, body_rot, body_dq, body_wrench,
-                   body_support, store, spring_force):
+                   body_support, store, spring_force, parts):
     for g in nb.prange(lo, hi):
+        if g < parts:
+            clear_part(g, parts, body_wrench, body_support)
         _elastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spring_frame0,
                        spring_n0, spring_k, body_pos, body_rot, body_dq, body_wrench, body_support,
                        store, spring_force)
@@ -272,8 +285,10 @@ def _elastic_phase(lo, hi, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
 def _elastic_phase_serial(lo, hi, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
                           spring_frame0, spring_n0, spring_k, body_pos, body_rot, body_dq,
                           body_wrench,
-                          body_support, store, spring_force):
+                          body_support, store, spring_force, parts):
     for g in range(lo, hi):
+        if g < parts:
+            clear_part(g, parts, body_wrench, body_support)
         _elastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spring_frame0,
                        spring_n0, spring_k, body_pos, body_rot, body_dq, body_wrench, body_support,
                        store, spring_force)
@@ -286,18 +301,19 @@ def elastic_spring_pass(phase_ptr, group_ptr, spring_bodies, spring_arm_a, sprin
     """Linear-elastic springs: force on body a, f = F diag(k) Fᵀ d [N]
     (Kawai 1978, eq. 13 form) with the spring frame F turned by the mid
     rotation, summed into the bodies' wrenches; `store`: also write each
-    spring's force (output steps)."""
-    clear_wrenches(body_wrench, body_support)
+    spring's force (output steps).  Phase 0's groups first zero their
+    parts' accumulators (clear_part)."""
+    parts = phase_ptr[1]
     if serial_pass(spring_bodies.shape[0]):
         _elastic_phase_serial(0, phase_ptr[phase_ptr.shape[0] - 1], group_ptr, spring_bodies,
                               spring_arm_a, spring_arm_b, spring_frame0, spring_n0, spring_k,
                               body_pos, body_rot, body_dq, body_wrench, body_support, store,
-                              spring_force)
+                              spring_force, parts)
         return
     for ph in range(phase_ptr.shape[0] - 1):
         _elastic_phase(phase_ptr[ph], phase_ptr[ph + 1], group_ptr, spring_bodies,
                        spring_arm_a, spring_arm_b, spring_frame0, spring_n0, spring_k, body_pos,
-                       body_rot, body_dq, body_wrench, body_support, store, spring_force)
+                       body_rot, body_dq, body_wrench, body_support, store, spring_force, parts)
 
 
 @nb.njit(parallel=True, **JIT)
