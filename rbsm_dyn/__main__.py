@@ -191,7 +191,7 @@ EXTRA_OBSERVABLES = {"static": {"residual": "1"}, "linear": {"residual": "1"},
 
 def _run(case, model, args, threads):
     from .case import CaseError
-    from .solvers import checkpoint, explicit, linear, modal, relax
+    from .solvers import checkpoint, explicit
     from .solvers.output import Recorder
     out = args.out or case.output.file
     extra = EXTRA_OBSERVABLES.get(case.solver.mode, {})
@@ -221,15 +221,18 @@ def _run(case, model, args, threads):
             summary = (f"{res['steps']} steps, dt = {res['dt']:.4g} s "
                        f"(estimate {res['dt_estimate']:.4g} s)")
         elif case.solver.mode == "static":
+            from .solvers import relax
             res = relax.run(case, model, rec, max_steps=args.max_steps, progress=progress)
             summary = f"{len(res['iterations'])} load steps, {sum(res['iterations'])} iterations"
         elif case.solver.mode == "linear":
+            from .solvers import linear       # (scipy.sparse: only these two modes)
             res = linear.run(case, model, rec)
             how = (f"CG, {res['iterations']} iterations" if res["method"] == "cg"
                    else "direct")
             summary = (f"K U = F ({res['n_free']} DOFs, {how}, residual {res['residual']:.2g}; "
                        f"assembly {res['assembly_time']:.2f} s, solve {res['solve_time']:.2f} s)")
         else:
+            from .solvers import modal
             res = modal.run(case, model, rec)
             summary = (f"{res['modes']} modes, ω_max = {res['omega_max']:.4g} rad/s")
     except explicit.RunFailed as exc:

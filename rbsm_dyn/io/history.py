@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import json
 import math
+from time import monotonic as _monotonic
 from dataclasses import dataclass
 from typing import Any, Mapping
 
@@ -139,6 +140,7 @@ class HistoryWriter:
         self._frames = 0
         self._started = False
         self._status = "running"
+        self._init_buffer()
         # libver="latest" is required for SWMR; a larger chunk cache keeps a
         # ~1 MiB chunk in memory between appends.
         self._f = h5py.File(self.path, "w", libver="latest", rdcc_nbytes=4 << 20)
@@ -182,6 +184,7 @@ class HistoryWriter:
         self._series = {}
         self._started = False
         self._status = "running"
+        self._init_buffer()
         try:
             self._f = h5py.File(self.path, "r+", libver="latest", rdcc_nbytes=4 << 20)
         except OSError as exc:
@@ -228,7 +231,8 @@ class HistoryWriter:
     # ------------------------------------------------------------------ state
     @property
     def frames(self) -> int:
-        """Number of complete frames written so far."""
+        """Number of complete frames written (and counted) so far; frames
+        still pending under set_buffering are not included."""
         return self._frames
 
     @property
@@ -333,13 +337,36 @@ class HistoryWriter:
         self._started = True
 
     # ---------------------------------------------------------------- frames
+    def _init_buffer(self) -> None:
+        self._pending: list = []       # frames appended, not yet written
+        self._pending_bytes = 0
+        self._last_write = _monotonic()
+        self.buffer_frames = 1         # set_buffering
+        self.buffer_seconds = 0.0
+        self.buffer_bytes = 64 << 20
+
+    def set_buffering(self, frames: int = 1, seconds: float = 0.0,
+                      nbytes: int = 64 << 20) -> None:
+        """Hold appended frames in memory and write them together (one resize
+        and one write per dataset instead of one per frame and dataset: a
+        frame of a small model cost ~10 ms alone).  Pending frames are written
+        when ``frames`` of them are held, when ``seconds`` have passed since
+        the last write, when they reach ``nbytes``, and by :meth:`flush_frames`,
+        :meth:`mark_failed` and :meth:`close`.  Default: every frame at once."""
+        self.buffer_frames = max(1, int(frames))
+        self.buffer_seconds = float(seconds)
+        self.buffer_bytes = int(nbytes)
+
     def append_frame(self, step: int, time: float, values: Mapping[str, Any]) -> int:
-        """Append one frame to every series, flush, then count it.
+        """Append one frame to every series; it is written, flushed and then
+        counted (root attribute ``frames``) at once, or with the next ones
+        under :meth:`set_buffering`.
 
         ``values`` maps each series path (as given to :meth:`add_series`) to
         an array of its tail shape.  Every series must be present and no other
-        key; shapes are checked before anything is written.  Returns the new
-        number of frames.
+        key; shapes are checked before anything is written (arrays are
+        copied).  Returns the number of frames appended so far (written or
+        pending).
         """
         f = self._file()
         if not self._started:
@@ -358,19 +385,39 @@ class HistoryWriter:
             if a.shape != s.tail_shape:
                 raise ValueError(f"append_frame: {p} has shape {a.shape}, "
                                  f"expected {s.tail_shape}")
-            arrays[p] = a.astype(s.dtype, copy=False)
+            arrays[p] = np.array(a, dtype=s.dtype, copy=True)
+            self._pending_bytes += arrays[p].nbytes
+        self._pending.append((int(step), float(time), arrays))
+        if (len(self._pending) >= self.buffer_frames
+                or self._pending_bytes >= self.buffer_bytes
+                or _monotonic() - self._last_write >= self.buffer_seconds):
+            self.flush_frames()
+        return self._frames + len(self._pending)
+
+    def flush_frames(self) -> int:
+        """Write the pending frames, flush, then count them; returns the
+        number of frames on disk."""
+        if not self._pending:
+            return self._frames
+        f = self._file()
         n = self._frames
+        k = len(self._pending)
+        steps = np.array([fr[0] for fr in self._pending], dtype=np.int64)
+        times = np.array([fr[1] for fr in self._pending], dtype=np.float64)
         for p, s in self._series.items():
             for ds in (s.step, s.time, s.value):
-                if ds.shape[0] != n + 1:
-                    ds.resize(n + 1, axis=0)
-            s.step[n] = int(step)
-            s.time[n] = float(time)
-            s.value[n] = arrays[p]
-        f.flush()                          # the frame is on disk ...
-        f.attrs.modify("frames", np.int64(n + 1))
+                if ds.shape[0] != n + k:
+                    ds.resize(n + k, axis=0)
+            s.step[n:n + k] = steps
+            s.time[n:n + k] = times
+            s.value[n:n + k] = np.stack([fr[2][p] for fr in self._pending])
+        f.flush()                          # the frames are on disk ...
+        f.attrs.modify("frames", np.int64(n + k))
         f.flush()                          # ... and only then counted
-        self._frames = n + 1
+        self._frames = n + k
+        self._pending = []
+        self._pending_bytes = 0
+        self._last_write = _monotonic()
         return self._frames
 
     # --------------------------------------------------------------- status
@@ -381,8 +428,10 @@ class HistoryWriter:
         self._status = status
 
     def mark_failed(self, message: str) -> None:
-        """Set the root attribute ``status`` to ``"failed: <message>"`` and
-        flush.  The data written so far stays readable; close() keeps it."""
+        """Write the pending frames, set the root attribute ``status`` to
+        ``"failed: <message>"`` and flush.  The data written so far stays
+        readable; close() keeps it."""
+        self.flush_frames()
         self._set_status(f"failed: {message}")
 
     def close(self) -> None:
@@ -390,6 +439,7 @@ class HistoryWriter:
         if self.closed:
             return
         try:
+            self.flush_frames()
             if self._status == "running":
                 self._set_status("completed")
             else:

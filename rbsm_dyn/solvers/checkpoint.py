@@ -124,6 +124,7 @@ class Checkpointer:
     def write(self, state, e0):
         if not self.enabled:
             return
+        self.writer.flush_frames()       # the slot counts frames on disk
         g = self.group
         cur = int(g.attrs["current"])
         slot = SLOTS[0] if cur != 0 else SLOTS[1]

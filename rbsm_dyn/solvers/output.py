@@ -32,6 +32,9 @@ FIELD_SERIES = {
     "spring_state": ("springs/state", None, "i1", "1"),
     "spring_force": ("springs/force", None, "f8", "N"),
 }
+# frames are written in batches: at most 256 frames or 1 s of wall time
+# late (a killed run loses at most that; a failed or stopped one nothing)
+FRAME_BUFFER = dict(frames=256, seconds=1.0, nbytes=64 << 20)
 PROBE_UNITS = {"displacement": "m", "rotation": "rad", "velocity": "m s-1",
                "force": "N", "reaction": "N"}
 
@@ -73,6 +76,7 @@ class Recorder:
                         "versions": json.dumps(versions()),
                         "threads": str(threads),
                         "materials": json.dumps(model.materials)})
+        w.set_buffering(**FRAME_BUFFER)
         m, mesh = model, model.mesh
         w.write_static("particles/bodies/mass", m.body_mass, "kg")
         w.write_static("particles/bodies/inertia", m.body_inertia, "kg m2")
@@ -138,6 +142,7 @@ class Recorder:
                             "n_broken": "1", "crack_area": "m2"}
         self.observables.update(dict(extra_observables))
         self.writer = HistoryWriter.reopen(path, frames=frames)
+        self.writer.set_buffering(**FRAME_BUFFER)
         expected = {FIELD_SERIES[n][0] for n in self.fields} | \
             {f"observables/{n}" for n in list(self.observables) + list(self.probes)}
         if set(self.writer.series_paths) != expected:
