@@ -140,9 +140,13 @@ def dynamic_body_pass(t, dt, body_wrench, body_support,
     constraints on the body at time t [N]."""
     n = body_mass.shape[0]
     c = 0.5 * damping_alpha * dt
+    # (1 − c)/(1 + c) and dt/(1 + c): divisions out of the loop
+    keep = (1.0 - c) / (1.0 + c)
+    dt_c = dt / (1.0 + c)
     for i in nb.prange(n):
         g = body_wrench[i]
         m = body_mass[i]
+        dt_cm = dt_c / m
         amp = amplitude(body_load_hist[i], t, hist_ptr, hist_t, hist_a)
         work = 0.0
         damp = 0.0
@@ -152,8 +156,9 @@ def dynamic_body_pass(t, dt, body_wrench, body_support,
             v_old = body_vel[i, k]
             kind = dof_kind[i, k]
             if kind == FREE:
-                # mass-proportional damping, central difference (c = α dt / 2)
-                v_new = ((1.0 - c) * v_old + dt * f / m) / (1.0 + c)
+                # mass-proportional damping, central difference (c = α dt / 2):
+                # v' = ((1 − c) v + dt f/m) / (1 + c)
+                v_new = keep * v_old + dt_cm * f
                 reaction = body_support[i, k]
             else:
                 if kind == FIXED:
@@ -181,7 +186,7 @@ def dynamic_body_pass(t, dt, body_wrench, body_support,
         for k in range(3):
             mext = amp * body_mext[i, k]
             l_old = L[k]
-            L[k] = ((1.0 - c) * l_old + dt * (g[3 + k] + mext)) / (1.0 + c)
+            L[k] = keep * l_old + dt_c * (g[3 + k] + mext)   # ((1 − c) L + dt T)/(1 + c)
         constrain_rotation(i, dof_kind, body_rot[i], inertia, L)
         if damping_alpha > 0.0 or amp != 0.0:
             # ω at the half step, for damping dissipation and moment work

@@ -117,11 +117,11 @@ def dlm_free_rotor(q, l0, l1, l2, inertia, h):
         b2 = sh if k == 1 else 0.0
         b3 = sh if k == 2 else 0.0
         q0, q1, q2, q3 = quat_mul(q0, q1, q2, q3, ch, b1, b2, b3)
-    n = math.sqrt(q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
-    q[0] = q0 / n
-    q[1] = q1 / n
-    q[2] = q2 / n
-    q[3] = q3 / n
+    r = 1.0 / math.sqrt(q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
+    q[0] = q0 * r
+    q[1] = q1 * r
+    q[2] = q2 * r
+    q[3] = q3 * r
 
 
 def matrix_to_quat(R):
