@@ -35,6 +35,7 @@ solver: {mode: dynamic, end_time: 8.0e-4}
 output:
   interval: 2.0e-5
   checkpoint_interval: 1.0e-4
+  flush_interval: 0          # every frame on disk at once: the kill lands after one
   fields: [position, orientation, velocity, angular_velocity, spring_state]
 """
 WAIT = 300.0        # s: give up on a subprocess that shows no progress (a slow, shared machine)

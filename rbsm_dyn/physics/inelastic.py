@@ -35,7 +35,8 @@ from .laws import (BROKEN, CONTACT, P_COH, P_CRIT, P_EPSCR, P_FT, P_GF, P_MU,
 from .laws.contact import CONTACT_OFF, contact_traction
 from .laws.plastic import plastic_return
 from .laws.rupture import SOFTENING, STRAIN, equivalent_strain, softening_damage
-from .springs import add_wrench, clear_part, flush_a, gap_and_scaled_frame, serial_pass
+from .springs import (add_wrench, clear_part, flush_a, material_points, mid_increment,
+                      scaled_frame, serial_pass)
 
 JIT = dict(cache=True, nogil=True, fastmath=False, error_model="numpy")
 
@@ -55,22 +56,35 @@ def _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
                      body_pos, body_rot, body_dq, body_wrench, body_support,
                      spring_state, spring_dp, spring_kappa, spring_dmg, spring_wp, spring_wf,
                      store, spring_force):
-    """The springs of group g, in order (partition.py)."""
+    """The springs of group g, in order (partition.py).  The spring points
+    of one face follow each other (same a, b and reference frame): their
+    turned frame F is computed once per face (springs._elastic_group)."""
     s0 = group_ptr[g]
     s1 = group_ptr[g + 1]
     if s1 == s0:
         return
     cur = np.uint64(spring_bodies[s0, 0])
     w0 = w1 = w2 = w3 = w4 = w5 = 0.0
-    for s in range(s0, s1):
-        (d0, d1, d2, la0, la1, la2, lb0, lb1, lb2,
-         G00, G01, G02, G10, G11, G12, G20, G21, G22, n2) = gap_and_scaled_frame(
-            s, spring_bodies, spring_arm_a, spring_arm_b, spring_frame0,
-            body_pos, body_rot, body_dq)
-        c = 1.0 / n2
-        F00, F01, F02 = c * G00, c * G01, c * G02
-        F10, F11, F12 = c * G10, c * G11, c * G12
-        F20, F21, F22 = c * G20, c * G21, c * G22
+    fa = fb = np.uint64(0)
+    r0 = r1 = r2 = r3 = np.nan      # the held face's reference frame (none yet)
+    n2 = F00 = F01 = F02 = F10 = F11 = F12 = F20 = F21 = F22 = 0.0
+    for s in range(np.uint64(s0), np.uint64(s1)):
+        a = np.uint64(spring_bodies[s, 0])
+        b = np.uint64(spring_bodies[s, 1])
+        d0, d1, d2, la0, la1, la2, lb0, lb1, lb2 = material_points(
+            s, a, b, spring_arm_a, spring_arm_b, body_pos, body_rot)
+        fr = spring_frame0[s]
+        if a != fa or b != fb or fr[0] != r0 or fr[1] != r1 or fr[2] != r2 or fr[3] != r3:
+            fa = a
+            fb = b
+            r0, r1, r2, r3 = fr[0], fr[1], fr[2], fr[3]
+            q0, q1, q2, q3, n2 = mid_increment(a, b, body_dq)
+            G00, G01, G02, G10, G11, G12, G20, G21, G22 = scaled_frame(
+                q0, q1, q2, q3, n2, r0, r1, r2, r3)
+            c = 1.0 / n2
+            F00, F01, F02 = c * G00, c * G01, c * G02
+            F10, F11, F12 = c * G10, c * G11, c * G12
+            F20, F21, F22 = c * G20, c * G21, c * G22
         dn = F00 * d0 + F10 * d1 + F20 * d2
         ds = F01 * d0 + F11 * d1 + F21 * d2
         dt = F02 * d0 + F12 * d1 + F22 * d2
@@ -106,9 +120,8 @@ def _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
             ft = (1.0 - dmg) * kt * et
             crit = P[P_CRIT]
             if crit > 0:
-                a = area
-                gn, gs, gt, yielded = plastic_return(int(crit), P[P_SY] * a, P[P_COH] * a,
-                                                     P[P_TANPHI], P[P_TENSION] * a,
+                gn, gs, gt, yielded = plastic_return(int(crit), P[P_SY] * area, P[P_COH] * area,
+                                                     P[P_TANPHI], P[P_TENSION] * area,
                                                      kn, ks, fn, fs, ft)
                 if yielded:
                     # (a support may hold only some components: k = 0 there)
@@ -160,7 +173,7 @@ def _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
         f1 = F10 * fn + F11 * fs + F12 * ft
         f2 = F20 * fn + F21 * fs + F22 * ft
         cur, w0, w1, w2, w3, w4, w5 = add_wrench(
-            s, np.uint64(spring_bodies[s, 0]), cur, w0, w1, w2, w3, w4, w5, f0, f1, f2,
+            s, a, cur, w0, w1, w2, w3, w4, w5, f0, f1, f2,
             la0, la1, la2, lb0, lb1, lb2, spring_bodies, body_wrench, body_support)
         if store:
             spring_force[s, 0] = f0

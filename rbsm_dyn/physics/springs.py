@@ -100,19 +100,21 @@ def gap_and_scaled_frame(s, spring_bodies, spring_arm_a, spring_arm_b, spring_fr
     (d0, d1, d2, la0, la1, la2, lb0, lb1, lb2, q0, q1, q2, q3, n2) = gap_and_mid(
         s, spring_bodies, spring_arm_a, spring_arm_b, body_pos, body_rot, body_dq)
     f = spring_frame0[s]
-    w, x, y, z = quat_mul(q0, q1, q2, q3, f[0], f[1], f[2], f[3])
-    # homogeneous rotation matrix of the unnormalised quaternion p (|p|² = n2)
-    G00 = n2 - 2.0 * (y * y + z * z)
-    G01 = 2.0 * (x * y - w * z)
-    G02 = 2.0 * (x * z + w * y)
-    G10 = 2.0 * (x * y + w * z)
-    G11 = n2 - 2.0 * (x * x + z * z)
-    G12 = 2.0 * (y * z - w * x)
-    G20 = 2.0 * (x * z - w * y)
-    G21 = 2.0 * (y * z + w * x)
-    G22 = n2 - 2.0 * (x * x + y * y)
+    G00, G01, G02, G10, G11, G12, G20, G21, G22 = scaled_frame(
+        q0, q1, q2, q3, n2, f[0], f[1], f[2], f[3])
     return (d0, d1, d2, la0, la1, la2, lb0, lb1, lb2,
             G00, G01, G02, G10, G11, G12, G20, G21, G22, n2)
+
+
+@nb.njit(inline="always", **JIT)
+def scaled_frame(q0, q1, q2, q3, n2, f0, f1, f2, f3):
+    """G = n2·R(p/|p|) of p = q ⊗ f (q the unnormalised mid increment with
+    |q|² = n2, f a unit reference frame): the homogeneous form of the
+    rotation matrix, no square root.  Returns G row-major (9 scalars)."""
+    w, x, y, z = quat_mul(q0, q1, q2, q3, f0, f1, f2, f3)
+    return (n2 - 2.0 * (y * y + z * z), 2.0 * (x * y - w * z), 2.0 * (x * z + w * y),
+            2.0 * (x * y + w * z), n2 - 2.0 * (x * x + z * z), 2.0 * (y * z - w * x),
+            2.0 * (x * z - w * y), 2.0 * (y * z + w * x), n2 - 2.0 * (x * x + y * y))
 
 
 @nb.njit(inline="always", **JIT)

@@ -50,7 +50,8 @@ ARRAYS = ("body_pos", "body_quat", "body_vel", "body_angmom", "body_rot", "body_
           "body_reaction", "spring_state", "spring_dp", "spring_kappa", "spring_dmg",
           "spring_wp", "spring_wf")
 #: case keys that may differ between the run and its restart
-FREE_KEYS = (("output", "file"), ("output", "checkpoint_interval"), ("solver", "end_time"))
+FREE_KEYS = (("output", "file"), ("output", "checkpoint_interval"), ("output", "flush_interval"),
+             ("solver", "end_time"))
 DEFAULT_WALL_INTERVAL = 300.0      # s of wall time between checkpoints, without the key
 SIGNAL_EXIT = {signal.SIGINT: 130, signal.SIGTERM: 143}
 

@@ -32,9 +32,16 @@ FIELD_SERIES = {
     "spring_state": ("springs/state", None, "i1", "1"),
     "spring_force": ("springs/force", None, "f8", "N"),
 }
-# frames are written in batches: at most 256 frames or 1 s of wall time
-# late (a killed run loses at most that; a failed or stopped one nothing)
-FRAME_BUFFER = dict(frames=256, seconds=1.0, nbytes=64 << 20)
+
+
+def frame_buffer(case):
+    """Frames are written in batches (io/history.py set_buffering): at most
+    256 frames, 64 MiB or output.flush_interval seconds of wall time late
+    (a killed run loses at most that; a failed or stopped one nothing);
+    flush_interval 0 writes every frame at once."""
+    sec = float(getattr(case.output, "flush_interval", 1.0))
+    return dict(frames=256 if sec > 0 else 1, seconds=sec, nbytes=64 << 20)
+
 PROBE_UNITS = {"displacement": "m", "rotation": "rad", "velocity": "m s-1",
                "force": "N", "reaction": "N"}
 
@@ -76,7 +83,7 @@ class Recorder:
                         "versions": json.dumps(versions()),
                         "threads": str(threads),
                         "materials": json.dumps(model.materials)})
-        w.set_buffering(**FRAME_BUFFER)
+        w.set_buffering(**frame_buffer(case))
         m, mesh = model, model.mesh
         w.write_static("particles/bodies/mass", m.body_mass, "kg")
         w.write_static("particles/bodies/inertia", m.body_inertia, "kg m2")
@@ -142,7 +149,7 @@ class Recorder:
                             "n_broken": "1", "crack_area": "m2"}
         self.observables.update(dict(extra_observables))
         self.writer = HistoryWriter.reopen(path, frames=frames)
-        self.writer.set_buffering(**FRAME_BUFFER)
+        self.writer.set_buffering(**frame_buffer(case))
         expected = {FIELD_SERIES[n][0] for n in self.fields} | \
             {f"observables/{n}" for n in list(self.observables) + list(self.probes)}
         if set(self.writer.series_paths) != expected:
