@@ -294,3 +294,31 @@ def test_plain_h5py_reading_with_frames(tmp_path):
         x = f[POS + "/value"][:T]
         t = f[POS + "/time"][:T]
     assert x.shape == (3, N, 3) and t.tolist() == [0.0, 1e-3, 2e-3]
+
+
+def test_buffered_frames_are_counted_when_written(tmp_path):
+    """set_buffering: frames wait in memory (not counted on disk) until the
+    batch is full, and are all written by mark_failed and close; the buffer
+    holds copies (a caller's array changed after append_frame does not
+    change the frame)."""
+    path = tmp_path / "buffered.h5"
+    w = _writer(path)
+    _setup(w)
+    w.set_buffering(frames=3, seconds=1e9)
+    for k in range(2):
+        fr = _frame(k)
+        assert w.append_frame(10 * k, 1e-3 * k, fr) == k + 1
+        fr[POS][:] = -1.0                           # the caller reuses its array
+    assert w.frames == 0
+    assert open_history(path).frames == 0           # nothing counted on disk yet
+    w.append_frame(20, 2e-3, _frame(2))             # third frame: the batch is written
+    assert w.frames == 3
+    _check_frames(open_history(path), 3)
+    w.append_frame(30, 3e-3, _frame(3))
+    w.mark_failed("stopped")                        # pending frame written first
+    _check_frames(open_history(path), 4)
+    w.append_frame(40, 4e-3, _frame(4))
+    w.close()
+    h = open_history(path)
+    _check_frames(h, 5)
+    assert h.status.startswith("failed: stopped")
