@@ -20,6 +20,7 @@ import numba as nb
 from .rotation import dlm_free_rotor, quat_mul, quat_to_matrix
 from .inelastic import inelastic_spring_pass
 from .springs import elastic_spring_pass
+from ..partition import PARTS
 
 JIT = dict(cache=True, nogil=True, fastmath={"contract"}, error_model="numpy")
 
@@ -143,64 +144,67 @@ def dynamic_body_pass(t, dt, body_wrench, body_support,
     # (1 − c)/(1 + c) and dt/(1 + c): divisions out of the loop
     keep = (1.0 - c) / (1.0 + c)
     dt_c = dt / (1.0 + c)
-    for i in nb.prange(n):
-        g = body_wrench[i]
-        m = body_mass[i]
-        dt_cm = dt_c / m
-        amp = amplitude(body_load_hist[i], t, hist_ptr, hist_t, hist_a)
-        work = 0.0
-        damp = 0.0
-        for k in range(3):
-            fext = amp * body_fext[i, k] + m * gravity[k]
-            f = g[k] + fext
-            v_old = body_vel[i, k]
-            kind = dof_kind[i, k]
-            if kind == FREE:
-                # mass-proportional damping, central difference (c = α dt / 2):
-                # v' = ((1 − c) v + dt f/m) / (1 + c)
-                v_new = keep * v_old + dt_cm * f
-                reaction = body_support[i, k]
-            else:
-                if kind == FIXED:
-                    v_new = 0.0
-                elif kind == VELOCITY:
-                    v_new = dof_value[i, k] * amplitude(dof_hist[i, k], t + 0.5 * dt,
-                                                        hist_ptr, hist_t, hist_a)
-                else:
-                    target = body_pos0[i, k] + dof_value[i, k] * amplitude(
-                        dof_hist[i, k], t + dt, hist_ptr, hist_t, hist_a)
-                    v_new = (target - body_pos[i, k]) / dt
-                # force the constraint adds so that m a = f + r
-                r = m * (v_new - v_old) / dt - f
-                reaction = body_support[i, k] + r
-                work += r * v_new * dt
-            work += fext * v_new * dt
-            va = 0.5 * (v_old + v_new)
-            damp += damping_alpha * m * va * va * dt
-            body_vel[i, k] = v_new
-            body_pos[i, k] += v_new * dt
-            body_reaction[i, k] = reaction
-        # rotation: kick world L, constrain, free rotor
-        L = body_angmom[i]
-        inertia = body_inertia[i]
-        for k in range(3):
-            mext = amp * body_mext[i, k]
-            l_old = L[k]
-            L[k] = keep * l_old + dt_c * (g[3 + k] + mext)   # ((1 − c) L + dt T)/(1 + c)
-        constrain_rotation(i, dof_kind, body_rot[i], inertia, L)
-        if damping_alpha > 0.0 or amp != 0.0:
-            # ω at the half step, for damping dissipation and moment work
-            R = body_rot[i]
+    # by the parts of partition.py (bodies i·PARTS // n = p): the same chunks
+    # as the spring pass's phase 0, so that a thread can keep its bodies
+    for p in nb.prange(PARTS):
+        for i in range((p * n + PARTS - 1) // PARTS, ((p + 1) * n + PARTS - 1) // PARTS):
+            g = body_wrench[i]
+            m = body_mass[i]
+            dt_cm = dt_c / m
+            amp = amplitude(body_load_hist[i], t, hist_ptr, hist_t, hist_a)
+            work = 0.0
+            damp = 0.0
             for k in range(3):
-                lb = R[0, k] * L[0] + R[1, k] * L[1] + R[2, k] * L[2]
-                wb = lb / inertia[k]
-                damp += damping_alpha * lb * wb * dt
-                for r in range(3):
-                    work += amp * body_mext[i, r] * R[r, k] * wb * dt
-        rotate_body(i, dt, inertia, body_quat, body_angmom, body_rot)
-        refresh_rotation(i, body_quat, body_quat0, body_rot, body_dq)
-        body_work[i] += work
-        body_damp[i] += damp
+                fext = amp * body_fext[i, k] + m * gravity[k]
+                f = g[k] + fext
+                v_old = body_vel[i, k]
+                kind = dof_kind[i, k]
+                if kind == FREE:
+                    # mass-proportional damping, central difference (c = α dt / 2):
+                    # v' = ((1 − c) v + dt f/m) / (1 + c)
+                    v_new = keep * v_old + dt_cm * f
+                    reaction = body_support[i, k]
+                else:
+                    if kind == FIXED:
+                        v_new = 0.0
+                    elif kind == VELOCITY:
+                        v_new = dof_value[i, k] * amplitude(dof_hist[i, k], t + 0.5 * dt,
+                                                            hist_ptr, hist_t, hist_a)
+                    else:
+                        target = body_pos0[i, k] + dof_value[i, k] * amplitude(
+                            dof_hist[i, k], t + dt, hist_ptr, hist_t, hist_a)
+                        v_new = (target - body_pos[i, k]) / dt
+                    # force the constraint adds so that m a = f + r
+                    r = m * (v_new - v_old) / dt - f
+                    reaction = body_support[i, k] + r
+                    work += r * v_new * dt
+                work += fext * v_new * dt
+                va = 0.5 * (v_old + v_new)
+                damp += damping_alpha * m * va * va * dt
+                body_vel[i, k] = v_new
+                body_pos[i, k] += v_new * dt
+                body_reaction[i, k] = reaction
+            # rotation: kick world L, constrain, free rotor
+            L = body_angmom[i]
+            inertia = body_inertia[i]
+            for k in range(3):
+                mext = amp * body_mext[i, k]
+                l_old = L[k]
+                L[k] = keep * l_old + dt_c * (g[3 + k] + mext)   # ((1 − c) L + dt T)/(1 + c)
+            constrain_rotation(i, dof_kind, body_rot[i], inertia, L)
+            if damping_alpha > 0.0 or amp != 0.0:
+                # ω at the half step, for damping dissipation and moment work
+                R = body_rot[i]
+                for k in range(3):
+                    lb = R[0, k] * L[0] + R[1, k] * L[1] + R[2, k] * L[2]
+                    wb = lb / inertia[k]
+                    damp += damping_alpha * lb * wb * dt
+                    for r in range(3):
+                        work += amp * body_mext[i, r] * R[r, k] * wb * dt
+            rotate_body(i, dt, inertia, body_quat, body_angmom, body_rot)
+            refresh_rotation(i, body_quat, body_quat0, body_rot, body_dq)
+            body_work[i] += work
+            body_damp[i] += damp
 
 
 @nb.njit(**JIT)
