@@ -19,7 +19,7 @@ import numba as nb
 
 from .rotation import dlm_free_rotor, quat_mul, quat_to_matrix
 from .inelastic import inelastic_spring_pass
-from .springs import elastic_spring_pass
+from .springs import elastic_spring_pass, part_range
 from ..partition import PARTS
 
 JIT = dict(cache=True, nogil=True, fastmath={"contract"}, error_model="numpy")
@@ -147,7 +147,8 @@ def dynamic_body_pass(t, dt, body_wrench, body_support,
     # by the parts of partition.py (bodies i·PARTS // n = p): the same chunks
     # as the spring pass's phase 0, so that a thread can keep its bodies
     for p in nb.prange(PARTS):
-        for i in range((p * n + PARTS - 1) // PARTS, ((p + 1) * n + PARTS - 1) // PARTS):
+        i0, i1 = part_range(p, PARTS, n)
+        for i in range(i0, i1):
             g = body_wrench[i]
             m = body_mass[i]
             dt_cm = dt_c / m

@@ -18,28 +18,29 @@ _COS = tuple((-1.0) ** k / math.factorial(2 * k) for k in range(10))
 
 
 @nb.njit(inline="always", **JIT)
+def _taylor_sincos(x, z, n):
+    """(sin x, cos x) by their Taylor series to x^(2n+1) / x^(2n) (Horner in
+    z = x²)."""
+    s = _SIN[n]
+    c = _COS[n]
+    for k in range(n - 1, -1, -1):
+        s = s * z + _SIN[k]
+        c = c * z + _COS[k]
+    return x * s, c
+
+
+@nb.njit(inline="always", **JIT)
 def sincos(x):
     """(sin x, cos x) to round-off without a libm call for |x| ≤ 0.5
     (Taylor series, Abramowitz & Stegun 4.3.65-66); libm beyond.
     |x| ≤ 1/32 (a step's rotation in practice): to x^7 / x^6, remainders
     below (1/32)^8/8! ≈ 2e-17 (relative, under half an ulp); else to
     x^19 / x^18, remainder below 0.5^20/20! ≈ 4e-25."""
-    z = x * x
     if abs(x) <= 0.03125:
-        s = _SIN[3]
-        c = _COS[3]
-        for k in range(2, -1, -1):
-            s = s * z + _SIN[k]
-            c = c * z + _COS[k]
-        return x * s, c
+        return _taylor_sincos(x, x * x, 3)
     if abs(x) > 0.5:
         return math.sin(x), math.cos(x)
-    s = _SIN[9]
-    c = _COS[9]
-    for k in range(8, -1, -1):
-        s = s * z + _SIN[k]
-        c = c * z + _COS[k]
-    return x * s, c
+    return _taylor_sincos(x, x * x, 9)
 
 
 @nb.njit(**JIT)

@@ -185,15 +185,20 @@ def serial_pass(n_springs):
 
 
 @nb.njit(inline="always", **JIT)
+def part_range(p, parts, n):
+    """Bodies [i0, i1) of part p of n bodies: those with i·parts // n = p
+    (partition.spring_schedule)."""
+    return (p * n + parts - 1) // parts, ((p + 1) * n + parts - 1) // parts
+
+
+@nb.njit(inline="always", **JIT)
 def clear_part(p, parts, body_wrench, body_support):
     """Zero the accumulators of the bodies of part p (bodies i with
     i·parts // N = p, partition.py), by the thread that runs phase 0's group
     p: the first to add to them in a pass, and the one whose cache they
     stay in (a serial clear of all bodies made every other thread fetch its
     bodies' lines from the clearing core)."""
-    n = body_wrench.shape[0] - 1   # the last row is the ground's
-    i0 = (p * n + parts - 1) // parts
-    i1 = ((p + 1) * n + parts - 1) // parts
+    i0, i1 = part_range(p, parts, body_wrench.shape[0] - 1)   # last row: the ground's
     for i in range(i0, i1):
         for k in range(6):
             body_wrench[i, k] = 0.0
