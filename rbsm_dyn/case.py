@@ -201,10 +201,15 @@ class Yield(_Node):
 
 
 class Rupture(_Node):
-    """``{strain}`` or ``{fracture_energy, tensile_strength}``."""
+    """``{strain}`` or ``{fracture_energy, tensile_strength}`` (+ ``law``,
+    ``shear_strength``, ``shear_fracture_energy``, ``values``)."""
     strain: Optional[float] = Field(default=None, gt=0)
     fracture_energy: Optional[float] = Field(default=None, gt=0)
     tensile_strength: Optional[float] = Field(default=None, gt=0)
+    law: Optional[Literal["mixed_mode", "tension"]] = None
+    shear_strength: Optional[float] = Field(default=None, gt=0)
+    shear_fracture_energy: Optional[float] = Field(default=None, gt=0)
+    values: Literal["material", "spring"] = "material"
 
 
 class Material(_Node):
@@ -227,6 +232,7 @@ class FaceSupport(_Node):
     """``{face: xmin, fix: all}``: springs to the ground on a domain face."""
     face: Face
     fix: Annotated[list[FaceComponent], _fix_list(("x", "y", "z"))]
+    breakable: bool = False
 
 
 class GroupFix(_Node):
@@ -428,6 +434,8 @@ DIMENSIONS: dict[tuple[type, str], str] = {
     (Yield, "tension"): "stress",
     (Rupture, "fracture_energy"): "energy/area",
     (Rupture, "tensile_strength"): "stress",
+    (Rupture, "shear_strength"): "stress",
+    (Rupture, "shear_fracture_energy"): "energy/area",
     (Group, "box"): "length",
     (GroupVelocity, "velocity"): "velocity",
     (GroupVelocity, "history"): "history",
@@ -861,6 +869,13 @@ def _check(case: Case) -> None:
                     if getattr(r, key) is None:
                         raise err(rp + (key,), "required key missing (rupture "
                                   "needs strain or fracture_energy and tensile_strength)")
+            else:
+                check_only(r, ["law", "shear_strength", "shear_fracture_energy", "values"], rp,
+                           "with rupture strain (only with fracture_energy and "
+                           "tensile_strength)")
+            if r.law == "tension":
+                check_only(r, ["shear_strength", "shear_fracture_energy"], rp,
+                           "with law tension (only mixed_mode)")
 
     for name, g in case.groups.items():
         path = ("groups", name)

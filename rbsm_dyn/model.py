@@ -13,12 +13,13 @@ import numba as nb
 import numpy as np
 
 from .calibration import stiffness_pair
+from .fracture_calibration import fracture_ratios
 from .mesh import block_mesh, principal_axes, spring_points, voronoi_mesh
 from .partition import spring_schedule
 from .physics.integrate import DISPLACEMENT, FIXED, VELOCITY, refresh_all_rotations
 from .physics.laws import (BROKEN, CONTACT_OFF, CRITERIA, ELASTIC, N_PARAMS, P_COH, P_CRIT,
-                           P_EPSCR, P_FT, P_GF, P_MU, P_RUPT, P_SY, P_TANPHI, P_TENSION,
-                           RUPTURE_KINDS)
+                           P_EPSCR, P_FT, P_GF, P_GS, P_MU, P_RS, P_RUPT, P_SY, P_TANPHI,
+                           P_TENSION, RUPTURE_KINDS)
 from .physics.rotation import matrix_to_quat
 
 IDX = np.int32
@@ -45,8 +46,10 @@ class Model:
       face id, or −1 − boundary face id for supports).
     Spring laws (physics/laws/): spring_law (S,) int32 row of law_params
       (n_laws, N_PARAMS) [Pa, 1, J/m²]; row 0 is purely elastic, row 1 + j
-      is material j (a support spring takes its cell's material: a clamp
-      can yield at the face, where beam theory puts the hinge);
+      is material j, row 1 + M + j material j without rupture (M materials;
+      a support spring takes its cell's material: a clamp can yield at the
+      face, where beam theory puts the hinge; it breaks only when the
+      support says `breakable: true`);
       spring_state0 (S,) int8 initial state (cuts: 2, broken);
       inelastic: bool, True when any law or cut needs the inelastic kernel.
     Schedule (partition.py): springs are stored by group, then (a, b);
@@ -220,9 +223,13 @@ def elastic_law_row():
     return row
 
 
-def material_law_row(mat):
+def material_law_row(mat, mesh_kind="voronoi", alpha=1.0):
     """law_params row of a case material (physics/laws/__init__.py columns).
-    A broken face is a contact with Coulomb friction `friction` (default 0)."""
+    A broken face is a contact with Coulomb friction `friction` (default 0).
+    Material fracture values are mapped to spring values by the mesh kind's
+    fracture calibration (fracture_calibration.py) unless `rupture.values:
+    spring`; the mixed-mode law's shear strength defaults to 2 f_t and its
+    mode-II energy to (f_s/f_t)² G_f (docs/case_file.md)."""
     row = elastic_law_row()
     y = mat.yield_
     if y is not None:
@@ -239,10 +246,26 @@ def material_law_row(mat):
             row[P_RUPT] = RUPTURE_KINDS["strain"]
             row[P_EPSCR] = r.strain
         else:
-            row[P_RUPT] = RUPTURE_KINDS["fracture_energy"]
-            row[P_FT] = r.tensile_strength
-            row[P_GF] = r.fracture_energy
+            f_t, g_f = 1.0, 1.0
+            if r.values == "material":
+                f_t, g_f = fracture_ratios(mesh_kind, alpha)
+            row[P_RUPT] = RUPTURE_KINDS[r.law or "mixed_mode"]
+            row[P_FT] = r.tensile_strength / f_t
+            row[P_GF] = r.fracture_energy / g_f
+            ratio = 2.0 if r.shear_strength is None else r.shear_strength / r.tensile_strength
+            row[P_RS] = ratio
+            g_s = ratio ** 2 * r.fracture_energy if r.shear_fracture_energy is None \
+                else r.shear_fracture_energy
+            row[P_GS] = g_s / g_f
     row[P_MU] = mat.friction or 0.0
+    return row
+
+
+def unbreakable(row):
+    """The law row without rupture (supports and symmetry planes that do not
+    break unless the case says `breakable: true`; yield stays)."""
+    row = row.copy()
+    row[P_RUPT] = 0
     return row
 
 
@@ -299,7 +322,10 @@ def build_model(case, mesh=None):
             raise case.error(("materials", name, "poisson"), str(exc)) from None
         materials.append(dict(name=name, density=mat.density, young=mat.young,
                               poisson=mat.poisson, stiffness=mat.stiffness, e0=e0, alpha=alpha))
-        law_rows.append(material_law_row(mat))
+        law_rows.append(material_law_row(mat, case.mesh.kind, alpha))
+    # rows 1 + n_mat + j: material j at unbreakable supports (yield, no rupture)
+    for row in law_rows[1:1 + len(mat_names)]:
+        law_rows.append(unbreakable(row))
     law_params = np.array(law_rows, dtype=float)
     dens = np.array([m["density"] for m in materials])[body_material]
     e0 = np.array([m["e0"] for m in materials])[body_material]
@@ -387,7 +413,8 @@ def build_model(case, mesh=None):
         sup.append(dict(a=cell, b=np.full(len(cell), n), point=bsp.point,
                         normal=nrm_b, area=bsp.weight, h=h, k=k * bsp.weight[:, None],
                         frame=np.tile(frame, (len(cell), 1)), face=(-1 - bf).astype(IDX),
-                        law=(1 + body_material[cell]).astype(IDX),
+                        law=(1 + body_material[cell]
+                             + (0 if item.breakable else len(mat_names))).astype(IDX),
                         state0=np.zeros(len(cell), dtype=np.int8)))
 
     parts = [internal] + sup

@@ -144,3 +144,80 @@ def test_friction_on_a_cut_face():
     assert st.spring_wp.sum() > 0
     t = step(m, st, [1e-6, 5e-6, 0])              # open
     assert np.allclose(t, 0) and np.all(st.spring_state == BROKEN)
+
+
+MIXED = ("rupture: {fracture_energy: %g, tensile_strength: %g, shear_strength: %g, "
+         "shear_fracture_energy: %g}")
+
+
+@pytest.mark.parametrize("direction, energy", [((1, 0, 0), "gt"), ((0, 1, 0), "gs"),
+                                               ((0, 0.6, 0.8), "gs")])
+def test_mixed_mode_dissipates_the_energy_of_its_mode(direction, energy):
+    """Mixed-mode law (CSL form, Cusatis et al. 2011; crack band, Bažant &
+    Oh 1983): a face opened in pure tension dissipates G_t × area, slid in
+    pure shear (any shear direction) G_s × area, to full separation; the
+    peak traction is f_t in tension and f_s in shear."""
+    gt, ft, fs, gs = 100.0, 3.0e6, 6.0e6, 500.0
+    m, st = pair(MIXED % (gt, ft, fs, gs), size=0.025)
+    g, f = (gt, ft) if energy == "gt" else (gs, fs)
+    k = E / 0.025                                  # blocks, ν = 0: k_s = k_n
+    du = 2 * g / f
+    d = np.asarray(direction, float)
+    peak = 0.0
+    for u in np.linspace(0, 1.2 * du + f / k, 3000):
+        t = step(m, st, u * d)
+        peak = max(peak, float(np.linalg.norm(t)))
+    assert np.all(st.spring_state == BROKEN)
+    assert peak == pytest.approx(f, rel=1e-2)
+    assert st.spring_wf.sum() == pytest.approx(g * A, rel=1e-2)
+
+
+@pytest.mark.parametrize("sigma", [-9.0e6, -3.0e6, 1.5e6])
+def test_mixed_mode_envelope_is_the_csl_parabola(sigma):
+    """Under a held normal traction σ the shear strength is the CSL
+    envelope τ = f_s √(1 − σ/f_t) (Cusatis & Cedolin 2007): more under
+    compression (friction-like), less under tension."""
+    gt, ft, fs, gs = 100.0, 3.0e6, 6.0e6, 600.0
+    m, st = pair(MIXED % (gt, ft, fs, gs), size=0.025)
+    k = E / 0.025
+    un = sigma / k
+    tau_max = fs * np.sqrt(1 - sigma / ft)
+    # shear grows at fixed normal gap; damage starts when the envelope is met
+    peak = 0.0
+    for ut in np.linspace(0, 1.5 * tau_max / k, 3000):
+        t = step(m, st, [un, ut, 0])
+        if st.spring_dmg.max() == 0:
+            peak = abs(t[1])
+    assert st.spring_dmg.max() > 0
+    assert peak == pytest.approx(tau_max, rel=2e-3)
+
+
+def test_supports_do_not_break_unless_asked():
+    """A support on a domain face takes the cell's law without rupture by
+    default: pulled far beyond the material's strength it holds (elastic),
+    while the internal face next to it breaks; `breakable: true` lets it
+    break like the material."""
+    text = f"""
+    name: sup
+    domain: {{box: [[0, 0, 0], [0.2, 0.1, 0.1]]}}
+    mesh: {{kind: blocks, divisions: [2, 1, 1], spring_points: centroid}}
+    materials:
+      m: {{density: {RHO}, young: {E}, poisson: 0.0,
+           rupture: {{fracture_energy: 10.0, tensile_strength: 1.0e6}}}}
+    boundary: [{{face: xmin, fix: all{{}}}}]
+    solver: {{mode: dynamic, end_time: 1.0}}
+    """
+    for breakable, expect in ((None, ELASTIC), (True, BROKEN)):
+        extra = "" if breakable is None else ", breakable: true"
+        m = build_model(load_case_text(textwrap.dedent(text).replace("{}", extra)))
+        st = new_state(m)
+        sup = m.is_support
+        assert sup.sum() == (~sup).sum() > 0        # one face each
+        # body 0 pulled away from the wall by 1 mm, body 1 by 2 mm: both
+        # the support face and the internal face open by 1 mm (f_t/k = 5e-7 m)
+        for frac in np.linspace(0, 1, 200):
+            st.body_pos[0] = m.body_pos0[0] + [1e-3 * frac, 0, 0]
+            st.body_pos[1] = m.body_pos0[1] + [2e-3 * frac, 0, 0]
+            step(m, st, st.body_pos[1] - m.body_pos0[1])
+        assert np.all(st.spring_state[~sup] == BROKEN)
+        assert np.all(st.spring_state[sup] == expect)

@@ -30,11 +30,12 @@ import math
 import numba as nb
 import numpy as np
 
-from .laws import (BROKEN, CONTACT, P_COH, P_CRIT, P_EPSCR, P_FT, P_GF, P_MU,
-                   P_RUPT, P_SY, P_TANPHI, P_TENSION, YIELDED)
+from .laws import (BROKEN, CONTACT, P_COH, P_CRIT, P_EPSCR, P_FT, P_GF, P_GS, P_MU,
+                   P_RS, P_RUPT, P_SY, P_TANPHI, P_TENSION, YIELDED)
 from .laws.contact import CONTACT_OFF, contact_traction
 from .laws.plastic import plastic_return
-from .laws.rupture import SOFTENING, STRAIN, equivalent_strain, softening_damage
+from .laws.rupture import (MIXED, SOFTENING, STRAIN, equivalent_strain, mixed_mode_damage,
+                           softening_damage)
 from .springs import (add_wrench, clear_part, flush_a, material_points, mid_increment,
                       scaled_frame, serial_pass)
 
@@ -108,11 +109,21 @@ def _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
                     spring_kappa[s] = kappa
                     dnew = softening_damage(kappa, kn / area, P[P_FT], P[P_GF])
                     if dnew > dmg:
-                        # energy release rate Y = ½ k e² (undamaged springs)
+                        # energy release rate Y = ½ k e² (undamaged springs; en > 0)
                         y = 0.5 * (kn * en * en + ks * es * es + kt * et * et)
                         spring_wf[s] += y * (dnew - dmg)
                         dmg = dnew
                         spring_dmg[s] = dmg
+            elif rupt == MIXED:
+                dnew = mixed_mode_damage(en, es, et, kn / area, ks / area, P[P_FT], P[P_GF],
+                                         P[P_RS], P[P_GS])
+                if dnew > dmg:
+                    # Y = −∂U/∂D, U = ½ (1 − D)(kn ⟨en⟩² + ks es² + kt et²) + ½ kn ⟨−en⟩²
+                    pn = en if en > 0.0 else 0.0
+                    y = 0.5 * (kn * pn * pn + ks * es * es + kt * et * et)
+                    spring_wf[s] += y * (dnew - dmg)
+                    dmg = dnew
+                    spring_dmg[s] = dmg
             fn = kn * en
             if fn > 0.0:
                 fn *= 1.0 - dmg          # a crack transmits no tension ...

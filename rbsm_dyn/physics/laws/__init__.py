@@ -2,7 +2,9 @@
 file uses (STYLE.md 0):
 
 * plastic.py  `yield: {criterion: normal | tresca | von_mises | mohr_coulomb}`
-* rupture.py  `rupture: {strain}` (sudden) or `{fracture_energy, tensile_strength}` (softening)
+* rupture.py  `rupture: {strain}` (sudden), `{law: tension, fracture_energy, tensile_strength}`
+              (tension softening) or `{law: mixed_mode, ...}` (the default: tension,
+              shear and compression on one damage variable)
 * contact.py  broken springs: compression only, Coulomb friction `friction: μ`
 
 A spring's law is a row of the table `law_params (n_laws, N_PARAMS)`
@@ -32,4 +34,6 @@ P_EPSCR = 6       # rupture strain ε_cr (strain)
 P_FT = 7          # tensile strength f_t [Pa] (softening)
 P_GF = 8          # fracture energy G_f [J/m²] (softening)
 P_MU = 9          # Coulomb friction μ of a broken face
-N_PARAMS = 10
+P_RS = 10         # shear-to-tensile strength ratio f_s/f_t (mixed_mode)
+P_GS = 11         # mode-II fracture energy G_s [J/m²] (mixed_mode)
+N_PARAMS = 12

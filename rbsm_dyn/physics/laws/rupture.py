@@ -13,16 +13,24 @@
   δ, so h enters only through k_n = E0/h (the regularisation).  For
   δ0 ≤ κ ≤ δu: D(κ) = δu (κ − δ0) / (κ (δu − δ0)), κ the largest opening.
   If δu ≤ δ0 (cells too large for G_f) the spring breaks at the peak.
-  Dissipation rate Y·Ḋ, Y = ½ (kn δn² + ks |δτ|²) (damage mechanics).
+  Dissipation rate Y·Ḋ, Y = ½ (kn ⟨δn⟩² + ks |δτ|²) (damage mechanics).
+  Case file: `rupture: {law: tension, ...}`.
+* mixed_mode (`rupture: {law: mixed_mode, ...}`, the default of
+  `{fracture_energy, tensile_strength}`): tension, shear and compression
+  on one damage variable: the equivalent-strain form and strength envelope
+  of Cusatis's CSL/LDPM facet law (a parabolic Mohr–Coulomb envelope with a
+  tension cap) with linear crack-band softening whose energy is G_t in
+  pure tension and G_s in pure shear (mixed_mode_damage below).
 """
 import math
 
 import numba as nb
+import numpy as np
 
 JIT = dict(cache=True, nogil=True, fastmath=False, error_model="numpy")
 
-NONE, STRAIN, SOFTENING = 0, 1, 2
-RUPTURE_KINDS = {"strain": STRAIN, "fracture_energy": SOFTENING}
+NONE, STRAIN, SOFTENING, MIXED = 0, 1, 2, 3
+RUPTURE_KINDS = {"strain": STRAIN, "tension": SOFTENING, "mixed_mode": MIXED}
 
 
 @nb.njit(inline="always", **JIT)
@@ -43,3 +51,62 @@ def softening_damage(kappa, kn, ft, gf):
     if du <= d0 or kappa >= du:
         return 1.0
     return du * (kappa - d0) / (kappa * (du - d0))
+
+
+@nb.njit(inline="always", **JIT)
+def csl_strength(s, c2, alpha, ft, r):
+    """Strength t0(ω) [Pa] in the equivalent traction t_eq = √(σn² + τ²/α)
+    on the direction ω of the gap (sin ω = s, cos² ω = c2), for tensile
+    strength ft and shear-to-tensile strength ratio r = f_s/f_t (Cusatis &
+    Cedolin 2007; Cusatis, Pelessone & Mencarelli 2011, Cem. Concr. Compos.
+    33, 881, eq. 23): the root of (α c2/r²) t0² + s f_t t0 − f_t² = 0, i.e.
+    the parabola τ² = f_s² (1 − σn/f_t) in traction space (a Mohr–Coulomb
+    envelope with a tension cap whose friction grows with confinement).
+    Pure tension (s = 1) gives f_t, pure shear (s = 0) τ = f_s, pure
+    compression (s = −1, c2 = 0) never fails (inf)."""
+    c = alpha * c2 / (r * r)
+    root = math.sqrt(s * s + 4.0 * c)
+    if s >= 0.0:
+        return 2.0 * ft / (s + root)          # rationalised: no cancellation near ω = π/2
+    if c <= 0.0:
+        return np.inf
+    return ft * (root - s) / (2.0 * c)
+
+
+@nb.njit(inline="always", **JIT)
+def mixed_mode_damage(en, es, et, kn, ks, ft, gt, r, gs):
+    """Damage D of the mixed-mode law at the elastic gap (en, es, et) [m]
+    (per-area stiffnesses kn, ks [Pa/m]; tensile strength ft [Pa], mode-I
+    energy gt, mode-II energy gs [J/m²], r = f_s/f_t).
+
+    Equivalent opening w = √(en² + α τ²) with α = ks/kn, so that the
+    stored energy is ½ (1 − D) kn w² and t_eq = (1 − D) kn w (CSL, Cusatis
+    et al. 2011); direction tan ω = en/(√α |eτ|).  Linear softening of t_eq
+    in w from the strength t0(ω) at w0 = t0/kn to zero at wu = 2 G(ω)/t0
+    (Bažant & Oh 1983, crack band: the area under the curve is G(ω)), so a
+    radial path dissipates G(ω) per unit area: G = gt in pure tension, gs in
+    pure shear, G = gs + (gt − gs) sin²ω between (ω ≥ 0), and under
+    compression (ω < 0) G = gs (t0(ω)/t0(0))², i.e. the constant softening
+    slope of pure shear (CSL's H0 = H_s for ω < 0).  The caller keeps D
+    non-decreasing (D = max over the history)."""
+    alpha = ks / kn
+    tau2 = es * es + et * et
+    w2 = en * en + alpha * tau2
+    if w2 <= 0.0:
+        return 0.0
+    w = math.sqrt(w2)
+    s = en / w
+    c2 = alpha * tau2 / w2
+    t0 = csl_strength(s, c2, alpha, ft, r)
+    w0 = t0 / kn
+    if w <= w0:
+        return 0.0
+    if s >= 0.0:
+        g = gs + (gt - gs) * s * s
+    else:
+        t00 = csl_strength(0.0, 1.0, alpha, ft, r)
+        g = gs * (t0 / t00) * (t0 / t00)
+    wu = 2.0 * g / t0
+    if wu <= w0 or w >= wu:
+        return 1.0
+    return wu * (w - w0) / (w * (wu - w0))
