@@ -229,7 +229,7 @@ def material_law_row(mat, mesh_kind="voronoi", alpha=1.0):
     Material fracture values are mapped to spring values by the mesh kind's
     fracture calibration (fracture_calibration.py) unless `rupture.values:
     spring`; the mixed-mode law's shear strength defaults to 2 f_t and its
-    mode-II energy to (f_s/f_t)² G_f (docs/case_file.md)."""
+    mode-II energy to G_f (docs/case_file.md)."""
     row = elastic_law_row()
     y = mat.yield_
     if y is not None:
@@ -254,7 +254,7 @@ def material_law_row(mat, mesh_kind="voronoi", alpha=1.0):
             row[P_GF] = r.fracture_energy / g_f
             ratio = 2.0 if r.shear_strength is None else r.shear_strength / r.tensile_strength
             row[P_RS] = ratio
-            g_s = ratio ** 2 * r.fracture_energy if r.shear_fracture_energy is None \
+            g_s = r.fracture_energy if r.shear_fracture_energy is None \
                 else r.shear_fracture_energy
             row[P_GS] = g_s / g_f
     row[P_MU] = mat.friction or 0.0
