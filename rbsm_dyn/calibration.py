@@ -18,6 +18,22 @@ the face normal; for two materials the two half-lengths act in series).
     mechanism: with k_s = 0 the Voronoi lattice has three zero-energy
     "spin" modes u_i = W s_i, θ_i = 0, because every face is normal to the
     line of its two seeds).
+  - voronoi, ν > NU_TABLE_MAX (0.25) up to 0.45: the elastically homogeneous
+    lattice (α = 1) plus the auxiliary volumetric stress λ tr(ε_c) per cell
+    (physics/poisson.py; Asahina et al. 2017, Eliáš 2017/2020), with
+    β = λ/E0 and E0 = E / (E/E0)(β) interpolated in a second table measured
+    the same way (VORONOI_AUX_TABLE).  Below 0.25 the α table is kept: it
+    costs nothing per step and existing models keep their results.
+* `homogeneous`: the α = 1 lattice plus the auxiliary stress for any ν in
+  [0, 0.45] (ν = 0: no auxiliary stress; near 0.5 λ and the wave speed
+  grow without bound).  Voronoi: β and E0 from
+  VORONOI_AUX_TABLE.  Blocks: exact for a uniform strain (the cubic α = 1
+  lattice has μ = E0/2, λ = 0 and the least-squares strain is exact), so
+  E0 = 2μ = E/(1+ν) and λ = Eν/((1+ν)(1−2ν)) (Lamé).
+
+`stiffness_rule(rule, mesh_kind, E, ν) -> (E0, α, λ_aux)`; λ_aux = 0 means
+no correction (a scene where every material has λ_aux = 0 runs no extra
+pass and holds no extra arrays).
 """
 import numpy as np
 
@@ -43,6 +59,47 @@ VORONOI_TABLE = np.array([
 ])
 
 
+# ν above which the calibrated Voronoi rule switches from the α table to the
+# auxiliary-stress correction, and the largest ν either reaches
+NU_TABLE_MAX = 0.25
+NU_MAX = 0.45
+
+# Voronoi, α = 1 plus the auxiliary stress λ = β E0 (physics/poisson.py):
+# measured (β, E_eff/E0, ν_eff) by benchmarks/calibrate.py aux on 2026-11-23
+# (same specimens, seeds and method as VORONOI_TABLE; docs/calibration.md).
+VORONOI_AUX_TABLE = np.array([
+    # beta, E/E0, nu               (± over 3 seeds × 3 axes)
+    [0.00, 1.0183, 0.0023],   # ± 0.0040, ± 0.0003
+    [0.10, 1.0965, 0.0825],   # ± 0.0040, ± 0.0004
+    [0.20, 1.1510, 0.1380],   # ± 0.0040, ± 0.0005
+    [0.30, 1.1913, 0.1790],   # ± 0.0040, ± 0.0006
+    [0.40, 1.2225, 0.2107],   # ± 0.0040, ± 0.0006
+    [0.50, 1.2473, 0.2359],   # ± 0.0040, ± 0.0007
+    [0.60, 1.2676, 0.2564],   # ± 0.0040, ± 0.0007
+    [0.80, 1.2989, 0.2881],   # ± 0.0040, ± 0.0008
+    [1.00, 1.3219, 0.3114],   # ± 0.0040, ± 0.0009
+    [1.25, 1.3434, 0.3331],   # ± 0.0040, ± 0.0010
+    [1.50, 1.3596, 0.3494],   # ± 0.0040, ± 0.0010
+    [2.00, 1.3826, 0.3725],   # ± 0.0040, ± 0.0012
+    [2.50, 1.3981, 0.3881],   # ± 0.0041, ± 0.0012
+    [3.00, 1.4093, 0.3993],   # ± 0.0041, ± 0.0013
+    [3.50, 1.4178, 0.4078],   # ± 0.0041, ± 0.0014
+    [4.00, 1.4245, 0.4145],   # ± 0.0041, ± 0.0014
+    [4.50, 1.4299, 0.4199],   # ± 0.0041, ± 0.0014
+    [5.00, 1.4343, 0.4243],   # ± 0.0041, ± 0.0015
+    [5.50, 1.4380, 0.4280],   # ± 0.0041, ± 0.0015
+    [6.00, 1.4412, 0.4311],   # ± 0.0041, ± 0.0015
+    [7.00, 1.4464, 0.4362],   # ± 0.0041, ± 0.0016
+    [8.00, 1.4504, 0.4401],   # ± 0.0041, ± 0.0016
+    [10.00, 1.4562, 0.4458],   # ± 0.0041, ± 0.0016
+    [11.00, 1.4583, 0.4479],   # ± 0.0041, ± 0.0017
+    [12.00, 1.4602, 0.4497],   # ± 0.0041, ± 0.0017
+    [13.00, 1.4618, 0.4512],   # ± 0.0041, ± 0.0017
+    [14.00, 1.4631, 0.4526],   # ± 0.0041, ± 0.0017
+    [16.00, 1.4654, 0.4547],   # ± 0.0041, ± 0.0017
+])
+
+
 def kawai_pair(young, poisson):
     """(E0, α) of Kawai's eq. 13: k_n = E'/h, k_s = G/h."""
     e_prime = (1 - poisson) * young / ((1 + poisson) * (1 - 2 * poisson))
@@ -50,8 +107,24 @@ def kawai_pair(young, poisson):
     return e_prime, shear / e_prime
 
 
+def _aux_rule(young, poisson):
+    """(E0, 1, λ) of the α = 1 lattice plus auxiliary stress, from VORONOI_AUX_TABLE."""
+    table = VORONOI_AUX_TABLE
+    nu = table[:, 2]
+    if not (0.0 <= poisson <= min(nu[-1], NU_MAX) + 1e-12):
+        raise ValueError(f"the corrected Voronoi lattice reaches ν in [0, "
+                         f"{min(nu[-1], NU_MAX):.2f}] (got {poisson})")
+    if poisson <= nu[0]:
+        # below the α = 1 lattice's own ν (0.002): no auxiliary stress
+        return young / table[0, 1], 1.0, 0.0
+    beta = float(np.interp(poisson, nu, table[:, 0]))
+    e0 = young / float(np.interp(poisson, nu, table[:, 1]))
+    return e0, 1.0, beta * e0
+
+
 def calibrated_pair(mesh_kind, young, poisson):
-    """(E0, α) that make a mesh of this kind reproduce E and ν.
+    """(E0, α) of the α table that make a mesh of this kind reproduce E and ν
+    (no auxiliary stress).
 
     Raises ValueError (with the reachable range) when ν cannot be reached."""
     if mesh_kind == "blocks":
@@ -60,14 +133,33 @@ def calibrated_pair(mesh_kind, young, poisson):
     nu = table[:, 2]
     if not (nu[0] - 1e-12 <= poisson <= nu[-1] + 1e-12):
         raise ValueError(f"the calibrated Voronoi lattice reaches ν in [{nu[0]:.3f}, "
-                         f"{nu[-1]:.3f}] (got {poisson}); the Poisson correction is not "
-                         "implemented yet")
+                         f"{nu[-1]:.3f}] (got {poisson}) without the Poisson correction")
     alpha = float(np.interp(poisson, nu, table[:, 0]))
     ratio = float(np.interp(poisson, nu, table[:, 1]))
     return young / ratio, alpha
 
 
-def stiffness_pair(rule, mesh_kind, young, poisson):
+def stiffness_rule(rule, mesh_kind, young, poisson):
+    """(E0, α, λ_aux) of a material: k_n = E0/h, k_s = α E0/h and the
+    auxiliary Lamé constant λ_aux [Pa] (0: no Poisson correction).
+
+    Raises ValueError (with the reachable range) when ν cannot be reached."""
     if rule == "kawai":
-        return kawai_pair(young, poisson)
-    return calibrated_pair(mesh_kind, young, poisson)
+        return kawai_pair(young, poisson) + (0.0,)
+    if rule == "homogeneous":
+        if mesh_kind == "blocks":
+            if poisson > NU_MAX + 1e-12:
+                raise ValueError(f"the corrected block lattice takes ν in [0, {NU_MAX}] "
+                                 f"(got {poisson})")
+            # Lamé: 2μ = E/(1+ν), λ = Eν/((1+ν)(1−2ν))
+            return (young / (1 + poisson), 1.0,
+                    young * poisson / ((1 + poisson) * (1 - 2 * poisson)))
+        return _aux_rule(young, poisson)
+    if mesh_kind == "blocks" or poisson <= NU_TABLE_MAX:
+        return calibrated_pair(mesh_kind, young, poisson) + (0.0,)
+    return _aux_rule(young, poisson)
+
+
+def stiffness_pair(rule, mesh_kind, young, poisson):
+    """(E0, α) of stiffness_rule (without λ_aux)."""
+    return stiffness_rule(rule, mesh_kind, young, poisson)[:2]

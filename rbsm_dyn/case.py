@@ -216,7 +216,7 @@ class Material(_Node):
     density: float = Field(gt=0)
     young: float = Field(gt=0)
     poisson: float = Field(ge=0, lt=0.5)
-    stiffness: Literal["calibrated", "kawai"] = "calibrated"
+    stiffness: Literal["calibrated", "kawai", "homogeneous"] = "calibrated"
     yield_: Optional[Yield] = Field(default=None, alias="yield")
     rupture: Optional[Rupture] = None
     friction: Optional[float] = Field(default=None, ge=0)

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 import numba as nb
 import numpy as np
 
-from .calibration import stiffness_pair
+from .calibration import stiffness_rule
 from .fracture_calibration import fracture_ratios
 from .mesh import block_mesh, principal_axes, spring_points, voronoi_mesh
 from .partition import spring_schedule
@@ -20,6 +20,7 @@ from .physics.integrate import DISPLACEMENT, FIXED, VELOCITY, refresh_all_rotati
 from .physics.laws import (BROKEN, CONTACT_OFF, CRITERIA, ELASTIC, N_PARAMS, P_COH, P_CRIT,
                            P_EPSCR, P_FT, P_GF, P_GS, P_MU, P_RS, P_RUPT, P_SY, P_TANPHI,
                            P_TENSION, RUPTURE_KINDS)
+from .physics.poisson import build_poisson, empty_poisson, poisson_abs_product
 from .physics.rotation import matrix_to_quat
 
 IDX = np.int32
@@ -59,6 +60,9 @@ class Model:
       displacement), dof_value (N, 6), dof_hist (N, 6) int32.
     Loads: body_fext, body_mext (N, 3) [N, N m], body_load_hist (N,) int32,
       gravity (3,) [m/s²]; amplitude tables hist_ptr, hist_t, hist_a.
+    Poisson correction (physics/poisson.py): poisson, a PoissonArrays of
+      per-cell least-squares strain geometry and λ_c V_c; length 0 (and
+      poisson_on False) when no material has an auxiliary λ.
     """
     n_bodies: int
     body_mass: np.ndarray
@@ -98,6 +102,12 @@ class Model:
     law_params: np.ndarray = None
     spring_state0: np.ndarray = None
     inelastic: bool = False
+    poisson: object = None
+
+    @property
+    def poisson_on(self):
+        """True when the auxiliary-stress pass runs (physics/poisson.py)."""
+        return self.poisson is not None and len(self.poisson.slot_cell) > 0
 
     @property
     def n_springs(self):
@@ -140,7 +150,9 @@ class State:
     Inelastic springs (length S when Model.inelastic, else 0):
     spring_state (S,) int8; spring_dp (S, 3) [m] plastic gap or slip;
     spring_kappa (S,) [m] largest opening; spring_dmg (S,) damage;
-    spring_wp, spring_wf (S,) [J] plastic and fracture dissipation."""
+    spring_wp, spring_wf (S,) [J] plastic and fracture dissipation.
+    Poisson correction scratch (length 0 unless Model.poisson_on; not
+    saved by checkpoints): aux_g (n_slots, 3) [1/m], aux_p (N,) [N m]."""
     body_pos: np.ndarray
     body_quat: np.ndarray
     body_vel: np.ndarray
@@ -159,6 +171,8 @@ class State:
     spring_dmg: np.ndarray = None
     spring_wp: np.ndarray = None
     spring_wf: np.ndarray = None
+    aux_g: np.ndarray = None
+    aux_p: np.ndarray = None
     step: int = 0
     dt: float = 0.0
 
@@ -182,6 +196,9 @@ def new_state(model):
     st.spring_dmg = np.zeros(si)
     st.spring_wp = np.zeros(si)
     st.spring_wf = np.zeros(si)
+    on = model.poisson_on
+    st.aux_g = np.zeros((len(model.poisson.slot_cell) if on else 0, 3))
+    st.aux_p = np.zeros(n if on else 0)
     refresh_all_rotations(n + 1, st.body_quat, model.body_quat0, st.body_rot, st.body_dq)
     return st
 
@@ -317,11 +334,13 @@ def build_model(case, mesh=None):
     for k, name in enumerate(mat_names):
         mat = case.materials[name]
         try:
-            e0, alpha = stiffness_pair(mat.stiffness, case.mesh.kind, mat.young, mat.poisson)
+            e0, alpha, lam_aux = stiffness_rule(mat.stiffness, case.mesh.kind, mat.young,
+                                                mat.poisson)
         except ValueError as exc:
             raise case.error(("materials", name, "poisson"), str(exc)) from None
         materials.append(dict(name=name, density=mat.density, young=mat.young,
-                              poisson=mat.poisson, stiffness=mat.stiffness, e0=e0, alpha=alpha))
+                              poisson=mat.poisson, stiffness=mat.stiffness, e0=e0, alpha=alpha,
+                              lambda_aux=lam_aux))
         law_rows.append(material_law_row(mat, case.mesh.kind, alpha))
     # rows 1 + n_mat + j: material j at unbreakable supports (yield, no rupture)
     for row in law_rows[1:1 + len(mat_names)]:
@@ -490,7 +509,11 @@ def build_model(case, mesh=None):
         if getattr(item, "moment", None) is not None:
             mext[ids] += w[:, None] * np.asarray(item.moment, float)
 
+    lam_aux = np.array([m["lambda_aux"] for m in materials])[body_material]
+    poisson = (build_poisson(mesh.face_cells, mesh.face_area, cen, mesh.cell_volume, lam_aux,
+                             rot0, cat["face"]) if np.any(lam_aux > 0) else empty_poisson(n))
     return Model(
+        poisson=poisson,
         n_bodies=n, body_mass=mass, body_inertia=inertia, body_volume=mesh.cell_volume.copy(),
         body_material=body_material, body_pos0=pos0, body_quat0=quat0,
         spring_bodies=sb, spring_arm_a=np.ascontiguousarray(arm_a),
@@ -561,6 +584,8 @@ def dof_row_sums(model, body_rot=None):
     frames = quat_matrix_np(model.spring_frame0)
     out = np.zeros((n, 6))
     _row_sums(sb, arm_w_a, arm_w_b, model.spring_k, frames, n, out)
+    if model.poisson_on:
+        out += poisson_abs_product(model.poisson, n, np.ones((n, 6)))
     return out
 
 
@@ -626,7 +651,9 @@ def _scaled_row_sums(spring_bodies, spring_arm_a, spring_arm_b, rot, frames, spr
 
 def scaled_row_sums(model, x=None):
     """P x (N, 6) [1/s²] for the entrywise |M^-½ K M^-½| bound P (see
-    Model.stable_dt); x = 1 (default): the Gershgorin row sums."""
+    Model.stable_dt); x = 1 (default): the Gershgorin row sums.  The
+    auxiliary stress of the Poisson correction adds its bound
+    |B|ᵀ diag(λV) |B| (physics/poisson.py) on the translations."""
     from .physics.rotation import quat_matrix_np
     n = model.n_bodies
     out = np.zeros((n, 6))
@@ -636,6 +663,10 @@ def scaled_row_sums(model, x=None):
     _scaled_row_sums(model.spring_bodies, model.spring_arm_a, model.spring_arm_b,
                      quat_matrix_np(model.body_quat0), quat_matrix_np(model.spring_frame0),
                      model.spring_k, model.body_mass, model.body_inertia, xx, out)
+    if model.poisson_on:
+        s = np.zeros((n, 6))
+        s[:, :3] = 1.0 / np.sqrt(model.body_mass)[:, None]
+        out += s * poisson_abs_product(model.poisson, n, s * xx[:n])
     return out
 
 

@@ -44,6 +44,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from .physics.integrate import DISPLACEMENT, FIXED, FREE, VELOCITY
+from .physics.poisson import poisson_stiffness
 from .physics.rotation import quat_matrix_np
 
 __all__ = ["stiffness_matrix", "mass_matrix", "model_load", "solve_linear",
@@ -84,7 +85,10 @@ def stiffness_matrix(model):
     """Global small-strain stiffness K (6N × 6N, CSR), K = Σ_s B_sᵀ C_s B_s
     (Kawai 1978, eq. 8b).  Rows/columns 6i..6i+2 are forces/translations
     [N, m], 6i+3..6i+5 moments/rotations [N m, rad] of body i (world axes,
-    about its centroid).  Support springs (b = ground) add to body a only."""
+    about its centroid).  Support springs (b = ground) add to body a only.
+    With the Poisson correction, K also holds the auxiliary-stress term
+    Bᵀ diag(λ V) B (physics/poisson.py: the Hessian of U_aux at the
+    reference)."""
     n = model.n_bodies
     sb = model.spring_bodies.astype(np.int64)
     r_a, r_b, C = _spring_geometry(model)
@@ -114,6 +118,8 @@ def stiffness_matrix(model):
         # summed chunk by chunk: memory stays at K plus one chunk's entries
         K = K + sp.coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
                               shape=(6 * n, 6 * n)).tocsr()
+    if model.poisson is not None and len(model.poisson.slot_cell):
+        K = K + poisson_stiffness(model.poisson, n)
     K.sum_duplicates()
     return K
 

@@ -19,6 +19,7 @@ import numba as nb
 
 from .rotation import dlm_free_rotor, quat_mul, quat_to_matrix
 from .inelastic import inelastic_spring_pass
+from .poisson import poisson_pass
 from .springs import elastic_spring_pass, part_range
 from ..partition import PARTS
 
@@ -218,9 +219,13 @@ def run_dynamic(n_steps, step0, dt, inelastic,
                 body_vel, body_angmom, body_rot, body_dq,
                 body_fext, body_mext, body_load_hist, gravity, damping_alpha,
                 dof_kind, dof_value, dof_hist, hist_ptr, hist_t, hist_a,
-                body_work, body_damp, body_reaction):
+                body_work, body_damp, body_reaction, poisson_on,
+                cell_slot_ptr, slot_cell, slot_rev, slot_g, slot_c0, slot_s0, slot_s1,
+                cell_lv, aux_g, aux_p):
     """Advance n_steps explicit steps inside compiled code.  Step order:
-    springs at x_n (summed into the body wrenches) → bodies kick, drift.
+    springs at x_n (summed into the body wrenches) → auxiliary stress of
+    the Poisson correction if `poisson_on` (physics/poisson.py, added to
+    the same wrenches) → bodies kick, drift.
     The spring kernel is the elastic one unless `inelastic` (yield,
     rupture, contact: physics/inelastic.py, with the per-spring history
     arrays; empty otherwise)."""
@@ -237,6 +242,10 @@ def run_dynamic(n_steps, step0, dt, inelastic,
             elastic_spring_pass(phase_ptr, group_ptr, spring_bodies, spring_arm_a,
                                 spring_arm_b, spring_frame0, spring_n0, spring_k, body_pos,
                                 body_rot, body_dq, body_wrench, body_support, False, spring_force)
+        if poisson_on:
+            poisson_pass(inelastic, cell_slot_ptr, slot_cell, slot_rev, slot_g, slot_c0,
+                         slot_s0, slot_s1, cell_lv, spring_state, spring_dmg, body_pos,
+                         body_rot, aux_g, aux_p, body_wrench)
         dynamic_body_pass(t, dt, body_wrench, body_support,
                           body_mass, body_inertia, body_pos, body_pos0, body_quat,
                           body_quat0, body_vel, body_angmom, body_rot, body_dq,

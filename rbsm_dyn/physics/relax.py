@@ -23,6 +23,7 @@ import numba as nb
 from .integrate import DISPLACEMENT, FIXED, FREE, refresh_rotation
 from .rotation import quat_mul
 from .inelastic import inelastic_spring_pass
+from .poisson import poisson_pass
 from .springs import elastic_spring_pass
 
 JIT = dict(cache=True, nogil=True, fastmath=False, error_model="numpy")
@@ -140,10 +141,14 @@ def run_relax(n_iter, lam, kind, beta, c, reset,
               body_mass_real, fict_mass, fict_inertia, body_pos, body_pos0, body_quat,
               body_quat0, body_vel, body_angmom, body_rot, body_dq, body_fext, body_mext,
               gravity, dof_kind, dof_value, arm_length, body_resid, body_reaction,
-              body_theta, body_rprev, body_num, body_den):
-    """n_iter relaxation steps inside compiled code.  `reset` starts a load
-    step (no quotient from its first iteration).  Returns (kinetic energy of the fictitious motion
-    after the last step, the damping coefficient c to continue with)."""
+              body_theta, body_rprev, body_num, body_den, poisson_on,
+              cell_slot_ptr, slot_cell, slot_rev, slot_g, slot_c0, slot_s0, slot_s1,
+              cell_lv, aux_g, aux_p):
+    """n_iter relaxation steps inside compiled code (springs, then the
+    auxiliary stress of the Poisson correction if `poisson_on`, then
+    bodies).  `reset` starts a load step (no quotient from its first
+    iteration).  Returns (kinetic energy of the fictitious motion after the
+    last step, the damping coefficient c to continue with)."""
     for it in range(n_iter):
         first = reset and it == 0
         if inelastic:
@@ -157,6 +162,10 @@ def run_relax(n_iter, lam, kind, beta, c, reset,
             elastic_spring_pass(phase_ptr, group_ptr, spring_bodies, spring_arm_a,
                                 spring_arm_b, spring_frame0, spring_n0, spring_k, body_pos,
                                 body_rot, body_dq, body_wrench, body_support, False, spring_force)
+        if poisson_on:
+            poisson_pass(inelastic, cell_slot_ptr, slot_cell, slot_rev, slot_g, slot_c0,
+                         slot_s0, slot_s1, cell_lv, spring_state, spring_dmg, body_pos,
+                         body_rot, aux_g, aux_p, body_wrench)
         relax_body_pass(lam, kind, beta, c, first, body_wrench, body_support, body_mass_real,
                         fict_mass, fict_inertia, body_pos, body_pos0, body_quat, body_quat0,
                         body_vel, body_angmom, body_rot, body_dq, body_fext, body_mext,

@@ -20,6 +20,7 @@ import numpy as np
 from ..model import apply_initial, new_state
 from ..physics.integrate import run_dynamic, synchronized_momenta
 from ..physics.inelastic import inelastic_spring_pass
+from ..physics.poisson import poisson_args, poisson_pass
 from ..physics.springs import elastic_spring_pass
 from .checkpoint import Checkpointer, Interrupted, SignalGuard
 
@@ -32,7 +33,8 @@ class RunFailed(RuntimeError):
 
 
 def spring_pass(model, state):
-    """Spring wrenches on the bodies and the force on body a of every spring
+    """Spring wrenches on the bodies (with the auxiliary stress of the
+    Poisson correction, physics/poisson.py) and the force on body a of every spring
     (state.spring_force) at the current positions, for output and
     synchronisation: an inelastic pass works on copies of the spring history,
     so repeating it at an output step changes nothing."""
@@ -52,6 +54,10 @@ def spring_pass(model, state):
                             state.body_pos,
                             state.body_rot, state.body_dq, state.body_wrench,
                             state.body_support, True, state.spring_force)
+    if m.poisson_on:
+        poisson_pass(m.inelastic, *poisson_args(m, state)[:8], state.spring_state,
+                     state.spring_dmg, state.body_pos, state.body_rot, state.aux_g,
+                     state.aux_p, state.body_wrench)
 
 
 def choose_dt(case, model):
@@ -81,7 +87,8 @@ def advance(model, state, n_steps, damping_alpha=0.0):
         m.body_quat0, state.body_vel, state.body_angmom, state.body_rot, state.body_dq,
         m.body_fext, m.body_mext, m.body_load_hist, m.gravity, damping_alpha,
         m.dof_kind, m.dof_value, m.dof_hist, m.hist_ptr, m.hist_t, m.hist_a,
-        state.body_work, state.body_damp, state.body_reaction)
+        state.body_work, state.body_damp, state.body_reaction, m.poisson_on,
+        *poisson_args(m, state))
 
 
 def synchronize(model, state):

@@ -3,7 +3,9 @@ probes, written through io/history.py in the H5MD layout (docs/history.md).
 
 Energies (output steps only, never per step):
   kinetic   ½ Σ m v·v + ½ Σ Lb·I⁻¹Lb at synchronized velocities [J]
-  strain    ½ Σ k δ² over spring points [J]
+  strain    ½ Σ k δ² over spring points [J], plus the auxiliary-stress
+            energy Σ_c ½ λ_c V_c χ_c θ_c² of the Poisson correction
+            (physics/poisson.py) when the model has it
   external  work of loads, gravity and constraints since t = 0 [J]
   damping   energy dissipated by mass-proportional damping [J]
   plastic   dissipated by yield and by friction on closed cracks [J]
@@ -22,6 +24,7 @@ from ..io.history import HistoryWriter
 from ..physics.rotation import quat_mul_np
 from ..physics.inelastic import inelastic_strain_energy
 from ..physics.laws import BROKEN
+from ..physics.poisson import poisson_energy
 from ..physics.springs import elastic_energy, spring_local_gap
 
 FIELD_SERIES = {
@@ -164,9 +167,14 @@ class Recorder:
         spring_local_gap(m.spring_bodies, m.spring_arm_a, m.spring_arm_b, m.spring_frame0,
                          state.body_pos, state.body_rot, state.body_dq, self._delta)
         if m.inelastic:
-            return inelastic_strain_energy(m.spring_k, self._delta, state.spring_state,
-                                           state.spring_dp, state.spring_dmg)
-        return elastic_energy(m.spring_k, self._delta)
+            u = inelastic_strain_energy(m.spring_k, self._delta, state.spring_state,
+                                        state.spring_dp, state.spring_dmg)
+        else:
+            u = elastic_energy(m.spring_k, self._delta)
+        if m.poisson_on:
+            u += poisson_energy(m.poisson, state.body_pos, state.body_rot,
+                                state.spring_state, state.spring_dmg)
+        return u
 
     def spring_observables(self, state):
         """Dissipated energies and crack measures of the springs now."""

@@ -16,6 +16,7 @@ import numpy as np
 
 from ..model import dof_row_sums, new_state
 from ..physics.integrate import refresh_all_rotations
+from ..physics.poisson import poisson_args
 from ..physics.relax import ADAPTIVE, LOCAL, run_relax
 from .explicit import RunFailed  # noqa: F401  (re-exported)
 
@@ -80,7 +81,8 @@ def run(case, model, recorder, *, max_steps=None, progress=None, check_every=200
                 m.body_mass, fm, fi, state.body_pos, m.body_pos0, state.body_quat,
                 m.body_quat0, state.body_vel, state.body_angmom, state.body_rot,
                 state.body_dq, m.body_fext, m.body_mext, m.gravity, m.dof_kind,
-                m.dof_value, arm, resid, state.body_reaction, theta, rprev, num, den)
+                m.dof_value, arm, resid, state.body_reaction, theta, rprev, num, den,
+                m.poisson_on, *poisson_args(m, state))
             it += k
             total += k
             if not np.all(np.isfinite(state.body_pos)):

@@ -1,0 +1,308 @@
+"""Poisson correction: an auxiliary volumetric stress λ tr(ε_c) per cell.
+
+An elastically homogeneous lattice (k_s = k_n = E0/h, α = 1) reproduces a
+uniform strain (almost) exactly with Lamé constants μ = E0/2, λ = 0
+(VERIFICATION.md "General": ν = (1 − α)/(4 + α) = 0), so E0 = 2μ = E/(1+ν)
+gives the shear modulus and the missing volumetric stiffness λ tr(ε) I is
+added per cell (the auxiliary stress of Asahina, Aoyagi, Kim, Birkholzer &
+Bolander, Computers and Geotechnics 81 (2017) 195–206; Eliáš, IJSS 2017 and
+2020 adds the same kind of tensorial stress to a discrete model).  Here it
+is derived from a potential, so that the stiffness stays symmetric, the
+energy is strain energy and the forces conserve momentum:
+
+    U_aux = Σ_c ½ λ_c V_c χ_c θ_c²,
+    θ_c = Σ_j [(R_c g̃_j) · (x_j − x_c) − g_j · (x_j⁰ − x_c⁰)]    (j: c's neighbours)
+
+θ_c is the trace of the least-squares displacement gradient of cell c from
+its face neighbours' centroids: G_c = Σ_j w_j Δu_j Δx_jᵀ A_c⁻¹,
+A_c = Σ_j w_j Δx_j Δx_jᵀ, w_j = A_f/|Δx_j|² (face area over squared
+distance), so tr G_c = Σ_j g_j · Δu_j with g_j = w_j A_c⁻¹ Δx_j.  It is exact
+for any affine displacement (all cells, including the surface ones), and
+its small-strain form does not see a rigid rotation (tr W = 0).  For
+finite rotations g_j is carried by the cell's rotation increment
+(g̃_j = R0_cᵀ g_j is stored in the principal frame, R_c g̃_j = R_Δc g_j), so
+a rigid motion of the whole neighbourhood gives θ_c = 0 exactly, at any
+rotation size.
+
+Forces (−∂U/∂x, −∂U/∂φ; p_c = λ_c V_c χ_c θ_c [N m], G_cj = R_c g̃_j [1/m]):
+
+    on neighbour j of c:   −p_c G_cj
+    on c:                  +p_c Σ_j G_cj,   torque −p_c Σ_j G_cj × (x_j − x_c)
+
+Linear momentum: the forces of one cell's term sum to zero.  Angular
+momentum: Σ_j (x_j − x_c) × (−p_c G_cj) + torque = 0 term by term.  So both
+are conserved to round-off; U is invariant under rigid motion (Noether).
+The forces act on the centroids (no lever arms); the small-strain tangent
+at the reference is λ_c V_c b_c b_cᵀ on the translations only (the
+rotation derivative Σ_j g_j × Δx_j⁰ = 0 because A_c⁻¹ A_c is symmetric).
+
+Damage (inelastic models): χ_c = min over the spring points of c's faces
+of (1 − D), and 0 as soon as one of them is broken (spring_state ≥ 2).
+A cell next to a damaged face therefore carries a proportionally smaller
+auxiliary stress, and none at all once a face is broken: no auxiliary
+tension crosses a crack.  Why per cell and not per face: scaling one face's
+share of θ_c by (1 − D) makes U_aux at fixed positions rise when that
+face's share has the opposite sign of θ_c, i.e. damage would create energy;
+with χ_c a non-increasing function of time (damage never heals, a broken
+spring stays broken) and θ_c independent of damage, U_aux at fixed
+positions can only fall when damage grows.  That fall is dissipated with
+the crack and is not booked in the `fracture` observable.
+
+Step (physics/integrate.py run_dynamic, physics/relax.py run_relax): after
+the spring pass, before the body pass, two parallel loops (no atomics; the
+same sums in the same order for any thread count):
+
+    1. per cell c: G_cj (stored per slot) and p_c;
+    2. per body i: wrench += p_i Σ_k G_ik − Σ_k p_j(k) G_j(k),rev(k), torque.
+
+Arrays (PoissonArrays, built once by build_poisson; n_slots = 2 × internal faces):
+  cell_slot_ptr (N+1,) int32: slots of cell c are cell_slot_ptr[c]:cell_slot_ptr[c+1];
+  slot_cell (n_slots,) int32 neighbour j; slot_rev (n_slots,) int32 the
+  slot (j → c); slot_g (n_slots, 3) [1/m] g̃ in c's principal frame;
+  slot_gw (n_slots, 3) [1/m] g in world axes (reference); slot_c0 (n_slots,)
+  g · Δx⁰; slot_s0, slot_s1 (n_slots,) int32 the face's spring points;
+  cell_lv (N,) [J] λ_c V_c.
+"""
+from collections import namedtuple
+
+import numba as nb
+import numpy as np
+import scipy.sparse as sp
+
+JIT = dict(cache=True, nogil=True, fastmath={"contract"}, error_model="numpy")
+IDX = np.int32
+
+PoissonArrays = namedtuple("PoissonArrays", "cell_slot_ptr slot_cell slot_rev slot_g slot_gw "
+                                            "slot_c0 slot_s0 slot_s1 cell_lv")
+
+# below this many slots the two loops run serially (parallel regions cost more
+# than the work; same order of sums, so the same result: physics/springs.py)
+SERIAL_SLOTS = 4096
+
+
+def empty_poisson(n_bodies):
+    """The arrays of a model without the correction (length 0: nothing to pay)."""
+    z = np.zeros(0, dtype=IDX)
+    return PoissonArrays(np.zeros(1, dtype=IDX), z, z, np.zeros((0, 3)), np.zeros((0, 3)),
+                         np.zeros(0), z, z, np.zeros(0))
+
+
+def build_poisson(face_cells, face_area, cell_centroid, cell_volume, cell_lambda, body_rot0,
+                  spring_face):
+    """PoissonArrays of a mesh (all NumPy, no loop over cells or faces).
+
+    face_cells (F, 2), face_area (F,) [m²]: internal faces; cell_centroid
+    (N, 3) [m]; cell_volume (N,) [m³]; cell_lambda (N,) [Pa] auxiliary Lamé
+    constant per cell; body_rot0 (N, 3, 3) principal axes (columns);
+    spring_face (S,) face of every spring point (< 0: support), in the
+    model's spring order: the points of one face must be consecutive."""
+    n = len(cell_volume)
+    F = len(face_cells)
+    fa = np.asarray(face_cells[:, 0], dtype=np.int64)
+    fb = np.asarray(face_cells[:, 1], dtype=np.int64)
+    c = np.concatenate([fa, fb])
+    j = np.concatenate([fb, fa])
+    face = np.concatenate([np.arange(F), np.arange(F)])
+    order = np.lexsort((j, c))
+    c, j, face = c[order], j[order], face[order]
+    ptr = np.concatenate([[0], np.cumsum(np.bincount(c, minlength=n))]).astype(IDX)
+    key = c * n + j
+    rev = np.searchsorted(key, j * n + c).astype(IDX)
+    # least-squares gradient from the neighbours' centroids, weight w = A_f/|Δx|²
+    dx = cell_centroid[j] - cell_centroid[c]
+    w = face_area[face] / np.einsum("ki,ki->k", dx, dx)
+    A = np.zeros((n, 3, 3))
+    np.add.at(A, c, w[:, None, None] * dx[:, :, None] * dx[:, None, :])
+    # pinv: a cell whose neighbours are coplanar gets the trace in their plane
+    Ainv = np.linalg.pinv(A, hermitian=True)
+    g = w[:, None] * np.einsum("kij,kj->ki", Ainv[c], dx)
+    c0 = np.einsum("ki,ki->k", g, dx)
+    g_body = np.einsum("kji,kj->ki", body_rot0[c], g)          # R0ᵀ g
+    # spring points of each face (consecutive in the model's order)
+    sf = np.asarray(spring_face)
+    internal = np.nonzero(sf >= 0)[0]
+    s0 = np.full(F, len(sf), dtype=np.int64)
+    s1 = np.zeros(F, dtype=np.int64)
+    np.minimum.at(s0, sf[internal], internal)
+    np.maximum.at(s1, sf[internal], internal + 1)
+    count = np.bincount(sf[internal], minlength=F)
+    if np.any(s1 - s0 != count):
+        raise ValueError("the spring points of a face are not consecutive")
+    return PoissonArrays(ptr, j.astype(IDX), rev, np.ascontiguousarray(g_body),
+                         np.ascontiguousarray(g), c0, s0[face].astype(IDX),
+                         s1[face].astype(IDX), np.asarray(cell_lambda * cell_volume, float))
+
+
+# --------------------------------------------------------------------------
+# kernels
+
+
+@nb.njit(inline="always", **JIT)
+def _cell_pressure(c, damaged, cell_slot_ptr, slot_cell, slot_g, slot_c0, slot_s0, slot_s1,
+                   cell_lv, spring_state, spring_dmg, body_pos, body_rot, aux_g):
+    """θ_c of cell c (and its slots' G = R_c g̃ into aux_g) and χ_c."""
+    R = body_rot[c]
+    xc0, xc1, xc2 = body_pos[c, 0], body_pos[c, 1], body_pos[c, 2]
+    th = 0.0
+    chi = 1.0
+    for k in range(cell_slot_ptr[c], cell_slot_ptr[c + 1]):
+        j = slot_cell[k]
+        a0, a1, a2 = slot_g[k, 0], slot_g[k, 1], slot_g[k, 2]
+        G0 = R[0, 0] * a0 + R[0, 1] * a1 + R[0, 2] * a2
+        G1 = R[1, 0] * a0 + R[1, 1] * a1 + R[1, 2] * a2
+        G2 = R[2, 0] * a0 + R[2, 1] * a1 + R[2, 2] * a2
+        aux_g[k, 0] = G0
+        aux_g[k, 1] = G1
+        aux_g[k, 2] = G2
+        th += (G0 * (body_pos[j, 0] - xc0) + G1 * (body_pos[j, 1] - xc1)
+               + G2 * (body_pos[j, 2] - xc2)) - slot_c0[k]
+        if damaged:
+            for s in range(slot_s0[k], slot_s1[k]):
+                x = 0.0 if spring_state[s] >= 2 else 1.0 - spring_dmg[s]
+                chi = min(chi, x)
+    return th, chi
+
+
+@nb.njit(inline="always", **JIT)
+def _body_wrench(i, cell_slot_ptr, slot_cell, slot_rev, aux_g, aux_p, body_pos, body_wrench):
+    """Add the auxiliary force and torque on body i (forces of its own term
+    and of its neighbours' terms, in slot order)."""
+    p = aux_p[i]
+    f0 = f1 = f2 = t0 = t1 = t2 = 0.0
+    xi0, xi1, xi2 = body_pos[i, 0], body_pos[i, 1], body_pos[i, 2]
+    for k in range(cell_slot_ptr[i], cell_slot_ptr[i + 1]):
+        j = slot_cell[k]
+        r = slot_rev[k]
+        G0, G1, G2 = aux_g[k, 0], aux_g[k, 1], aux_g[k, 2]
+        pj = aux_p[j]
+        f0 += p * G0 - pj * aux_g[r, 0]
+        f1 += p * G1 - pj * aux_g[r, 1]
+        f2 += p * G2 - pj * aux_g[r, 2]
+        d0 = body_pos[j, 0] - xi0
+        d1 = body_pos[j, 1] - xi1
+        d2 = body_pos[j, 2] - xi2
+        # −p G × Δx
+        t0 -= p * (G1 * d2 - G2 * d1)
+        t1 -= p * (G2 * d0 - G0 * d2)
+        t2 -= p * (G0 * d1 - G1 * d0)
+    body_wrench[i, 0] += f0
+    body_wrench[i, 1] += f1
+    body_wrench[i, 2] += f2
+    body_wrench[i, 3] += t0
+    body_wrench[i, 4] += t1
+    body_wrench[i, 5] += t2
+
+
+@nb.njit(parallel=True, **JIT)
+def _pressures_parallel(damaged, cell_slot_ptr, slot_cell, slot_g, slot_c0, slot_s0, slot_s1,
+                        cell_lv, spring_state, spring_dmg, body_pos, body_rot, aux_g, aux_p):
+    for c in nb.prange(cell_lv.shape[0]):
+        th, chi = _cell_pressure(c, damaged, cell_slot_ptr, slot_cell, slot_g, slot_c0,
+                                 slot_s0, slot_s1, cell_lv, spring_state, spring_dmg,
+                                 body_pos, body_rot, aux_g)
+        aux_p[c] = cell_lv[c] * chi * th
+
+
+@nb.njit(parallel=True, **JIT)
+def _wrenches_parallel(cell_slot_ptr, slot_cell, slot_rev, aux_g, aux_p, body_pos, body_wrench):
+    for i in nb.prange(aux_p.shape[0]):
+        _body_wrench(i, cell_slot_ptr, slot_cell, slot_rev, aux_g, aux_p, body_pos, body_wrench)
+
+
+@nb.njit(**JIT)
+def poisson_pass(damaged, cell_slot_ptr, slot_cell, slot_rev, slot_g, slot_c0, slot_s0,
+                 slot_s1, cell_lv, spring_state, spring_dmg, body_pos, body_rot, aux_g, aux_p,
+                 body_wrench):
+    """Add the auxiliary-stress wrenches (module docstring) to body_wrench.
+    `damaged`: scale each cell's term by χ_c from spring_state and
+    spring_dmg (inelastic models; otherwise those may be empty).
+    Scratch: aux_g (n_slots, 3), aux_p (N,)."""
+    n = cell_lv.shape[0]
+    if slot_cell.shape[0] < SERIAL_SLOTS:
+        for c in range(n):
+            th, chi = _cell_pressure(c, damaged, cell_slot_ptr, slot_cell, slot_g, slot_c0,
+                                     slot_s0, slot_s1, cell_lv, spring_state, spring_dmg,
+                                     body_pos, body_rot, aux_g)
+            aux_p[c] = cell_lv[c] * chi * th
+        for i in range(n):
+            _body_wrench(i, cell_slot_ptr, slot_cell, slot_rev, aux_g, aux_p, body_pos,
+                         body_wrench)
+        return
+    _pressures_parallel(damaged, cell_slot_ptr, slot_cell, slot_g, slot_c0, slot_s0, slot_s1,
+                        cell_lv, spring_state, spring_dmg, body_pos, body_rot, aux_g, aux_p)
+    _wrenches_parallel(cell_slot_ptr, slot_cell, slot_rev, aux_g, aux_p, body_pos, body_wrench)
+
+
+@nb.njit(parallel=True, **JIT)
+def _theta_chi(damaged, cell_slot_ptr, slot_cell, slot_g, slot_c0, slot_s0, slot_s1, cell_lv,
+               spring_state, spring_dmg, body_pos, body_rot, aux_g, out_theta, out_chi):
+    for c in nb.prange(cell_lv.shape[0]):
+        th, chi = _cell_pressure(c, damaged, cell_slot_ptr, slot_cell, slot_g, slot_c0,
+                                 slot_s0, slot_s1, cell_lv, spring_state, spring_dmg,
+                                 body_pos, body_rot, aux_g)
+        out_theta[c] = th
+        out_chi[c] = chi
+
+
+def cell_dilatation(aux, body_pos, body_rot, spring_state=None, spring_dmg=None):
+    """θ_c (N,) and χ_c (N,) now (output steps, tests)."""
+    n = len(aux.cell_lv)
+    damaged = spring_state is not None and len(spring_state) > 0
+    st = spring_state if damaged else np.zeros(0, dtype=np.int8)
+    dm = spring_dmg if damaged else np.zeros(0)
+    theta, chi = np.empty(n), np.empty(n)
+    _theta_chi(damaged, aux.cell_slot_ptr, aux.slot_cell, aux.slot_g, aux.slot_c0, aux.slot_s0,
+               aux.slot_s1, aux.cell_lv, st, dm, body_pos, body_rot,
+               np.empty((len(aux.slot_cell), 3)), theta, chi)
+    return theta, chi
+
+
+def poisson_energy(aux, body_pos, body_rot, spring_state=None, spring_dmg=None):
+    """U_aux = Σ_c ½ λ_c V_c χ_c θ_c² [J] (output steps)."""
+    if len(aux.cell_lv) == 0:
+        return 0.0
+    theta, chi = cell_dilatation(aux, body_pos, body_rot, spring_state, spring_dmg)
+    return 0.5 * float(np.sum(aux.cell_lv * chi * theta * theta))
+
+
+# --------------------------------------------------------------------------
+# small-strain matrices (stiffness.py, the stable-step bound, relaxation masses)
+
+
+def poisson_B(aux, n_bodies):
+    """B (N × 6N, CSR): θ = B U to first order, U the 6-per-body DOFs of
+    stiffness.py (row c: g_j on the translations of each neighbour j,
+    −Σ_j g_j on c's own)."""
+    ptr = aux.cell_slot_ptr.astype(np.int64)
+    cnt = np.diff(ptr)
+    c = np.repeat(np.arange(n_bodies), cnt)
+    g = aux.slot_gw
+    own = np.zeros((n_bodies, 3))
+    np.add.at(own, c, g)
+    rows = np.concatenate([np.repeat(c, 3), np.repeat(np.arange(n_bodies), 3)])
+    cols = np.concatenate([(6 * aux.slot_cell.astype(np.int64))[:, None] + np.arange(3),
+                           (6 * np.arange(n_bodies))[:, None] + np.arange(3)]).ravel()
+    vals = np.concatenate([g.ravel(), -own.ravel()])
+    return sp.csr_matrix((vals, (rows, cols)), shape=(n_bodies, 6 * n_bodies))
+
+
+def poisson_stiffness(aux, n_bodies):
+    """K_aux = Bᵀ diag(λ V) B (6N × 6N, CSR) [N/m]: the Hessian of U_aux at
+    the reference (χ = 1)."""
+    B = poisson_B(aux, n_bodies)
+    return (B.T @ sp.diags(aux.cell_lv) @ B).tocsr()
+
+
+def poisson_abs_product(aux, n_bodies, x):
+    """|B|ᵀ diag(λ V) |B| x for x (N, 6) -> (N, 6): bounds the row sums of
+    |K_aux| entrywise (|Σ_c w b bᵀ| ≤ Σ_c w |b||b|ᵀ), for Gershgorin."""
+    B = abs(poisson_B(aux, n_bodies))
+    return (B.T @ (aux.cell_lv * (B @ x.reshape(-1)))).reshape(n_bodies, 6)
+
+
+def poisson_args(model, state):
+    """The arguments of poisson_pass after `damaged` for a model and state
+    (Python side: run_dynamic, run_relax, output passes)."""
+    a = model.poisson
+    return (a.cell_slot_ptr, a.slot_cell, a.slot_rev, a.slot_g, a.slot_c0, a.slot_s0,
+            a.slot_s1, a.cell_lv, state.aux_g, state.aux_p)
