@@ -5,9 +5,15 @@
         E_eff/E0 and ν_eff against α = k_s/k_n for the Voronoi generator
         (min_spacing 0.5) and the block mesh; prints the rows for
         rbsm_dyn/calibration.py VORONOI_TABLE.
+    python benchmarks/calibrate.py aux [--cells 1000] [--seeds 1 2 3]
+        E_eff/E0 and ν_eff of the α = 1 Voronoi lattice plus the auxiliary
+        stress λ = β E0 of the Poisson correction (physics/poisson.py)
+        against β; prints the rows for VORONOI_AUX_TABLE.
     python benchmarks/calibrate.py check [--cells 1000] [--seeds 1 2 3]
-        E_eff/E and ν_eff for each mesh kind under the `kawai` and
-        `calibrated` stiffness rules (through the ordinary Case -> Model path).
+            [--rules kawai calibrated homogeneous] [--nu 0 0.1 0.2 0.3 0.45]
+        E_eff/E and ν_eff for each mesh kind under the stiffness rules
+        (through the ordinary Case -> Model path); ν is skipped where a rule
+        cannot reach it.
 
 Specimen: the unit cube, about `--cells` cells (Voronoi size = cells^(-1/3);
 blocks n × n × n), no supports; uniaxial stress along x, y and z in turn
@@ -21,6 +27,7 @@ import time
 
 import numpy as np
 
+from rbsm_dyn.calibration import stiffness_rule
 from rbsm_dyn.case import load_case_text
 from rbsm_dyn.model import build_mesh, build_model
 from rbsm_dyn.stiffness import stiffness_matrix, uniaxial_moduli
@@ -86,16 +93,55 @@ def alpha_sweep(args):
                       f"# ± {E.std():.4f}, ± {nu.std():.4f}")
 
 
+BETAS = [0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.8, 1.0, 1.25, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0,
+         4.5, 5.0, 5.5, 6.0, 7.0, 8.0, 10.0, 12.0, 14.0, 16.0]
+
+
+def aux_sweep(args):
+    """E_eff/E0, ν_eff against β = λ/E0 at α = 1: K(β) = E0 (K_1 + β K_aux),
+    K_1 the α = 1 lattice per unit E0, K_aux the auxiliary term per unit λ."""
+    from rbsm_dyn.physics.poisson import poisson_stiffness
+    print(f"# uniaxial stress, unit cube, ~{args.cells} cells, seeds {args.seeds}, "
+          f"core {args.core}; alpha = 1 plus auxiliary stress lambda = beta E0")
+    betas = args.betas or BETAS
+    samples = {b: ([], []) for b in betas}
+    for seed in args.seeds:
+        t0 = time.perf_counter()
+        # the homogeneous rule at ν = 0.3: α = 1 and the Poisson arrays built
+        model = build_model(case_for("voronoi", args.cells, seed, poisson=0.3,
+                                     rule="homogeneous"))
+        aux = model.poisson
+        k1 = stiffness_matrix(dataclasses.replace(
+            model, spring_k=model.spring_k / model.materials[0]["e0"], poisson=None))
+        kaux = poisson_stiffness(aux._replace(cell_lv=model.body_volume.copy()),
+                                 model.n_bodies)
+        for b in betas:
+            E, nu = uniaxial_moduli(model, core=args.core, K=k1 + b * kaux)
+            samples[b][0].extend(E)
+            samples[b][1].extend(nu)
+        print(f"# voronoi seed {seed}: {model.n_bodies} cells, {len(aux.slot_cell)} slots, "
+              f"{time.perf_counter() - t0:.1f} s")
+    print(f"\nvoronoi aux: beta, E/E0, nu  (mean ± std over {len(args.seeds)} seed(s) × 3 axes)")
+    for b in betas:
+        E, nu = map(np.array, samples[b])
+        print(f"    [{b:.2f}, {E.mean():.4f}, {nu.mean():.4f}],   "
+              f"# ± {E.std():.4f}, ± {nu.std():.4f}")
+
+
 def check(args):
     print(f"# uniaxial stress, unit cube, ~{args.cells} cells, Voronoi seeds {args.seeds}")
-    print("| mesh | stiffness | target ν | E0/E | α | E_eff/E | ν_eff |")
-    print("|---|---|---|---|---|---|---|")
+    print("| mesh | stiffness | target ν | E0/E | α | λ_aux/E | E_eff/E | ν_eff |")
+    print("|---|---|---|---|---|---|---|---|")
     for kind in ("blocks", "voronoi"):
         seeds = args.seeds if kind == "voronoi" else [0]
         meshes = {s: build_mesh(case_for(kind, args.cells, s)) for s in seeds}
-        for rule in ("kawai", "calibrated"):
+        for rule in args.rules:
             for nu_t in args.nu:
                 Es, nus = [], []
+                try:
+                    stiffness_rule(rule, kind, E_REF, nu_t)
+                except ValueError:
+                    continue
                 for s in seeds:
                     case = case_for(kind, args.cells, s, poisson=nu_t, rule=rule)
                     model = build_model(case, meshes[s])
@@ -104,21 +150,26 @@ def check(args):
                     nus.extend(nu)
                 mat = model.materials[0]
                 print(f"| {kind} | {rule} | {nu_t} | {mat['e0'] / E_REF:.4f} | "
-                      f"{mat['alpha']:.4f} | {np.mean(Es):.4f} ± {np.std(Es):.4f} | "
+                      f"{mat['alpha']:.4f} | {mat['lambda_aux'] / E_REF:.4f} | "
+                      f"{np.mean(Es):.4f} ± {np.std(Es):.4f} | "
                       f"{np.mean(nus):.4f} ± {np.std(nus):.4f} |")
 
 
 def main():
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("what", choices=["alpha", "check"])
+    p.add_argument("what", choices=["alpha", "aux", "check"])
+    p.add_argument("--rules", nargs="+", default=["kawai", "calibrated"],
+                   choices=["kawai", "calibrated", "homogeneous"])
     p.add_argument("--cells", type=int, default=1000)
     p.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
     p.add_argument("--core", type=float, default=0.25,
                    help="fraction of the length trimmed at each loaded end for the fit")
     p.add_argument("--nu", type=float, nargs="+", default=[0.0, 0.1, 0.2])
+    p.add_argument("--betas", type=float, nargs="+", default=None,
+                   help="aux: the β = λ/E0 to measure (default: the table's rows)")
     args = p.parse_args()
     t0 = time.perf_counter()
-    (alpha_sweep if args.what == "alpha" else check)(args)
+    {"alpha": alpha_sweep, "aux": aux_sweep, "check": check}[args.what](args)
     print(f"# {time.perf_counter() - t0:.0f} s")
 
 

@@ -8,6 +8,8 @@ Physics:
   elastic  linear springs (the elastic kernel);
   plastic  von Mises yield at a stress the motion reaches (inelastic kernel);
   full     yield, softening rupture and Coulomb contact on broken faces.
+--poisson sets the steel's ν (default 0.2; above 0.25 the calibrated rule
+adds the Poisson correction's auxiliary stress pass, physics/poisson.py).
 Ends with one line (the contract of issue 5):
   bench: bodies=B springs=S steps=K threads=T physics=P ns_per_spring_step=X ns_per_body_step=Y
 """
@@ -23,7 +25,7 @@ units: SI
 domain: {{box: [[0, 0, 0], [1.0, 0.5, 0.5]]}}
 mesh: {{kind: voronoi, size: {size:.6g}, seed: 1}}
 materials:
-  steel: {{density: 7850, young: 2.0e11, poisson: 0.2{law}}}
+  steel: {{density: 7850, young: 2.0e11, poisson: {poisson!r}{law}}}
 boundary: [{{face: xmin, fix: all}}]
 initial: [{{velocity: [0.0, 0.0, {v}], angular_velocity: [0.0, 0.0, 2.0]}}]
 solver: {{mode: dynamic, end_time: 1.0e-3}}
@@ -37,10 +39,10 @@ LAWS = {
 }
 
 
-def case_text(bodies, physics):
+def case_text(bodies, physics, poisson=0.2):
     size = (1.0 * 0.5 * 0.5 / max(bodies, 8)) ** (1.0 / 3.0)
     law, v = LAWS[physics]
-    return CASE.format(size=size, law=law, v=v)
+    return CASE.format(size=size, law=law, v=v, poisson=poisson)
 
 
 def headroom(threads):
@@ -69,7 +71,7 @@ def headroom(threads):
     return times[1] / times[threads]
 
 
-def run(bodies, steps, threads, physics, repeat=3, out=print):
+def run(bodies, steps, threads, physics, repeat=3, out=print, poisson=0.2):
     """Build, warm up, time for each thread count in `threads` (one model);
     returns a list of dicts of the figures."""
     import numba
@@ -79,12 +81,14 @@ def run(bodies, steps, threads, physics, repeat=3, out=print):
     from .solvers.explicit import advance, choose_dt, start_half_step
 
     t0 = time.perf_counter()
-    case = load_case_text(case_text(bodies, physics), "bench.yaml")
+    case = load_case_text(case_text(bodies, physics, poisson), "bench.yaml")
     model = build_model(case)
     t_build = time.perf_counter() - t0
     S, N = model.n_springs, model.n_bodies
     out(f"model: {N} bodies, {S} spring points, physics {physics} "
-        f"({'inelastic' if model.inelastic else 'elastic'} kernel); build {t_build:.1f} s")
+        f"({'inelastic' if model.inelastic else 'elastic'} kernel), ν = {poisson}"
+        + (f" (Poisson correction on: {len(model.poisson.slot_cell)} cell-neighbour slots)"
+           if model.poisson_on else "") + f"; build {t_build:.1f} s")
 
     def fresh():
         st = new_state(model)
@@ -169,6 +173,9 @@ def main(argv=None):
     p.add_argument("--threads", default="1",
                    help="Numba threads, or a comma list timed on one model (default 1)")
     p.add_argument("--physics", choices=sorted(LAWS), default="elastic")
+    p.add_argument("--poisson", type=float, default=0.2,
+                   help="ν of the steel (default 0.2: the α table, no correction; "
+                        "above 0.25 the Poisson correction runs, physics/poisson.py)")
     p.add_argument("--repeat", type=int, default=3, help="timed rounds (each times every thread count once), best kept (default 3)")
     a = p.parse_args(argv)
     try:
@@ -181,7 +188,7 @@ def main(argv=None):
     if max(threads) > numba.config.NUMBA_NUM_THREADS:
         p.error(f"--threads {max(threads)} > NUMBA_NUM_THREADS = "
                 f"{numba.config.NUMBA_NUM_THREADS}")
-    run(int(a.bodies), a.steps, threads, a.physics, a.repeat)
+    run(int(a.bodies), a.steps, threads, a.physics, a.repeat, poisson=a.poisson)
     return 0
 
 
