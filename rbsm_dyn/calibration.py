@@ -13,17 +13,18 @@ the face normal; for two materials the two half-lengths act in series).
   - voronoi: measured E/E0 and ν as functions of α on a 1 000-cell cube
     (uniform end tractions, strain fitted over the central half; mean of 3
     seeds × 3 load axes); α is interpolated for the target ν and
-    E0 = E / (E/E0)(α).  The table spans α = 0.1 … 1.2, i.e. ν from −0.037
-    to 0.284; ν beyond that is an error that names the range (α = 0 is a
-    mechanism: with k_s = 0 the Voronoi lattice has three zero-energy
-    "spin" modes u_i = W s_i, θ_i = 0, because every face is normal to the
-    line of its two seeds).
+    E0 = E / (E/E0)(α), for 0 ≤ ν ≤ NU_TABLE_MAX = 0.25.  The table spans
+    α = 0.1 … 1.2, i.e. ν from −0.037 to 0.284 (α = 0 is a mechanism: with
+    k_s = 0 the Voronoi lattice has three zero-energy "spin" modes
+    u_i = W s_i, θ_i = 0, because every face is normal to the line of its
+    two seeds).
   - voronoi, ν > NU_TABLE_MAX (0.25) up to 0.45: the elastically homogeneous
     lattice (α = 1) plus the auxiliary volumetric stress λ tr(ε_c) per cell
     (physics/poisson.py; Asahina et al. 2017, Eliáš 2017/2020), with
     β = λ/E0 and E0 = E / (E/E0)(β) interpolated in a second table measured
     the same way (VORONOI_AUX_TABLE).  Below 0.25 the α table is kept: it
-    costs nothing per step and existing models keep their results.
+    costs nothing per step and existing models keep their results.  ν above
+    0.45 is an error that names the range (ν_eff(β) flattens towards 0.47).
 * `homogeneous`: the α = 1 lattice plus the auxiliary stress for any ν in
   [0, 0.45] (ν = 0: no auxiliary stress; near 0.5 λ and the wave speed
   grow without bound).  Voronoi: β and E0 from
