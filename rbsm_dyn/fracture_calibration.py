@@ -26,24 +26,88 @@ spring point as given.
 import numpy as np
 
 # Voronoi (mesh/voronoi.py, min_spacing 0.5, default spring points), law
-# mixed_mode at its default shear values: (α, F_T, F_G) measured by
+# mixed_mode at its default shear values, ν = 0: (β, F_T, F_G) against the
+# material's brittleness β = l_ch/Δ = E G_f/(f_t² Δ) (Hillerborg's
+# characteristic length over the cell size), measured by
 # benchmarks/calibrate_fracture.py (docs/calibration.md, "Fracture").
 VORONOI_FRACTURE = np.array([
-    # alpha, F_T, F_G
-    [1.0, 1.0, 1.0],
-])
-
-# Blocks: a crack along a plane of block faces has no tortuosity and a
-# uniaxial stress along an axis loads the faces normal to it uniformly.
-BLOCKS_FRACTURE = np.array([
-    [1.0, 1.0, 1.0],
+    # beta, F_T, F_G
+    [1.56, 1.004, 1.563],
+    [2.47, 1.089, 1.465],
+    [5.08, 1.190, 1.438],
+    [10.6, 1.272, 1.432],
 ])
 
 
-def fracture_ratios(mesh_kind, alpha):
-    """(F_T, F_G) of a mesh kind at shear ratio α = k_s/k_n (interpolated in
-    the measured table, held constant beyond its ends)."""
-    table = VORONOI_FRACTURE if mesh_kind == "voronoi" else BLOCKS_FRACTURE
-    table = table[np.argsort(table[:, 0])]
-    return (float(np.interp(alpha, table[:, 0], table[:, 1])),
-            float(np.interp(alpha, table[:, 0], table[:, 2])))
+def brittleness(young, fracture_energy, tensile_strength, cell_size):
+    """β = l_ch/Δ, l_ch = E G_f/f_t² (Hillerborg, Modéer & Petersson 1976)."""
+    return young * fracture_energy / (tensile_strength ** 2 * cell_size)
+
+
+def fracture_ratios(mesh_kind, young, fracture_energy, tensile_strength, cell_size):
+    """(F_T, F_G) of a mesh kind for a material (E, G_f, f_t) cut into cells
+    of `cell_size`: interpolated at its brittleness β (in log β) in the
+    measured table, held constant beyond its ends.  Blocks: (1, 1): a crack
+    along a plane of block faces has no tortuosity and a uniaxial stress
+    along an axis loads the faces normal to it uniformly (Griffith test in
+    tests/test_fracture.py)."""
+    if mesh_kind != "voronoi":
+        return 1.0, 1.0
+    beta = brittleness(young, fracture_energy, tensile_strength, cell_size)
+    table = VORONOI_FRACTURE[np.argsort(VORONOI_FRACTURE[:, 0])]
+    x = np.log(beta)
+    lb = np.log(table[:, 0])
+    return float(np.interp(x, lb, table[:, 1])), float(np.interp(x, lb, table[:, 2]))
+
+
+def tension_specimen(*, cell, cells_across=8, notch=0.5, young=30.0e9, density=2400.0,
+                     poisson=0.0, tensile_strength=3.0e6, fracture_energy=None, beta=None,
+                     values="material", seed=1, rate=0.25, extra=""):
+    """YAML text of the calibration specimens (docs/calibration.md,
+    "Fracture"): a Voronoi prism W × W × 2W (W = cells_across × cell) on a
+    support on zmin holding z, pulled along z at its top cell layer at a
+    constant velocity (ramped over 10 wave transits), with a single-edge
+    notch cut half-way up over `notch` × W (0: direct tension).  Give the
+    fracture energy or the brittleness β = l_ch/Δ.  The velocity is `rate`
+    × f_t/(ρ c0), a quarter of the particle velocity of a stress wave of f_t,
+    so that the specimen is loaded quasi-statically; the run ends after the
+    opening 2 G_f/f_t of a face has been applied twice over.  Probes: F (z
+    reaction on the support, negative in tension) and u (top displacement).
+    Returns (text, ligament area [m²], G_f)."""
+    if fracture_energy is None:
+        fracture_energy = beta * cell * tensile_strength ** 2 / young
+    W = cells_across * cell
+    L = 2 * W
+    c0 = (young / density) ** 0.5
+    v = rate * tensile_strength / (density * c0)
+    ramp = 10 * L / c0
+    t_end = max(2.0 * (2 * fracture_energy / tensile_strength
+                       + L * tensile_strength / young) / v, 3 * ramp)
+    cut = ""
+    if notch > 0:
+        cut = (f"cuts: [{{point: [0, 0, {L / 2!r}], normal: [0, 0, 1], within: [[-1, -1, "
+               f"{L / 2 - cell!r}], [{notch * W!r}, 1, {L / 2 + cell!r}]]}}]")
+    text = f"""\
+name: tension-specimen
+domain: {{box: [[0, 0, 0], [{W!r}, {W!r}, {L!r}]]}}
+mesh: {{kind: voronoi, size: {cell!r}, seed: {seed}}}
+materials:
+  m: {{density: {density!r}, young: {young!r}, poisson: {poisson!r},
+      rupture: {{fracture_energy: {fracture_energy!r}, tensile_strength: {tensile_strength!r},
+                values: {values}{extra}}}}}
+groups:
+  top: {{box: [[-1, -1, {L - 0.5 * cell!r}], [1, 1, 1]]}}
+  bottom: {{box: [[-1, -1, -1], [1, 1, {1.5 * cell!r}]]}}
+boundary:
+  - {{face: zmin, fix: [z]}}
+  - {{group: top, velocity: [0, 0, {v!r}], history: [[0, 0], [{ramp!r}, 1], [{t_end!r}, 1]]}}
+{cut}
+solver: {{mode: dynamic, end_time: {t_end!r}}}
+output:
+  interval: {t_end / 150!r}
+  fields: [position]
+  probes:
+    F: {{group: bottom, quantity: reaction, component: z, reduce: sum}}
+    u: {{group: top, quantity: displacement, component: z, reduce: mean}}
+"""
+    return text, W * W * (1 - notch), fracture_energy

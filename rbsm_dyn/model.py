@@ -240,7 +240,7 @@ def elastic_law_row():
     return row
 
 
-def material_law_row(mat, mesh_kind="voronoi", alpha=1.0):
+def material_law_row(mat, mesh_kind="voronoi", cell_size=None):
     """law_params row of a case material (physics/laws/__init__.py columns).
     A broken face is a contact with Coulomb friction `friction` (default 0).
     Material fracture values are mapped to spring values by the mesh kind's
@@ -265,7 +265,8 @@ def material_law_row(mat, mesh_kind="voronoi", alpha=1.0):
         else:
             f_t, g_f = 1.0, 1.0
             if r.values == "material":
-                f_t, g_f = fracture_ratios(mesh_kind, alpha)
+                f_t, g_f = fracture_ratios(mesh_kind, mat.young, r.fracture_energy,
+                                           r.tensile_strength, cell_size)
             row[P_RUPT] = RUPTURE_KINDS[r.law or "mixed_mode"]
             row[P_FT] = r.tensile_strength / f_t
             row[P_GF] = r.fracture_energy / g_f
@@ -341,7 +342,7 @@ def build_model(case, mesh=None):
         materials.append(dict(name=name, density=mat.density, young=mat.young,
                               poisson=mat.poisson, stiffness=mat.stiffness, e0=e0, alpha=alpha,
                               lambda_aux=lam_aux))
-        law_rows.append(material_law_row(mat, case.mesh.kind, alpha))
+        law_rows.append(material_law_row(mat, case.mesh.kind, case.mesh.size))
     # rows 1 + n_mat + j: material j at unbreakable supports (yield, no rupture)
     for row in law_rows[1:1 + len(mat_names)]:
         law_rows.append(unbreakable(row))

@@ -1,0 +1,82 @@
+"""Measure the fracture calibration of the Voronoi lattice
+(rbsm_dyn/fracture_calibration.py; method in docs/calibration.md, "Fracture").
+
+    python benchmarks/calibrate_fracture.py [--betas 1 2 5 12] [--seeds 1 2] [--cells-across 8]
+
+For each spring brittleness β_s = E G_s/(f_s² Δ) and seed, two specimens
+with the spring values as given (`rupture.values: spring`):
+* direct tension (no notch): F_T = peak stress / f_s;
+* single-edge notch over half the width: F_G = W_f / (A_lig G_s), the
+  fracture dissipation at full separation per ligament (projected crack) area.
+The material that these springs represent has f_t = F_T f_s, G_f = F_G G_s,
+so β = β_s F_G/F_T²: the rows (β, F_T, F_G) printed at the end are those of
+VORONOI_FRACTURE.  Material: E = 30 GPa, ρ = 2400, ν = 0, f_t = 3 MPa
+(only β matters), cell 2 mm.  About 1 min per specimen on one core.
+"""
+import argparse
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+import rbsm_dyn
+from rbsm_dyn.__main__ import main
+from rbsm_dyn.fracture_calibration import tension_specimen
+
+FT = 3.0e6
+
+
+def run(text, tmp):
+    path = Path(tmp) / "specimen.yaml"
+    path.write_text(text)
+    out = Path(tmp) / "specimen.h5"
+    if main([str(path), "--out", str(out), "--quiet"]) != 0:
+        sys.exit("run failed")
+    return rbsm_dyn.open_history(out)
+
+
+def measure(beta, seed, notch, cells_across, tmp):
+    text, area, gf = tension_specimen(cell=0.002, cells_across=cells_across, notch=notch,
+                                      tensile_strength=FT, beta=beta, values="spring",
+                                      seed=seed)
+    t = time.time()
+    h = run(text, tmp)
+    ob = h.observables
+    W2 = (cells_across * 0.002) ** 2
+    bal = ob["kinetic"] + ob["strain"] + ob["plastic"] + ob["fracture"] + ob["damping"] \
+        - ob["external_work"]
+    return dict(peak=np.abs(ob["F"]).max() / W2 / FT, wf=ob["fracture"][-1] / (area * gf),
+                balance=np.abs(bal).max() / ob["external_work"].max(), wall=time.time() - t)
+
+
+def main_(argv=None):
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--betas", type=float, nargs="+", default=[1, 2, 5, 12])
+    p.add_argument("--seeds", type=int, nargs="+", default=[1, 2])
+    p.add_argument("--cells-across", type=int, default=8)
+    a = p.parse_args(argv)
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for beta in a.betas:
+            ft, fg = [], []
+            for seed in a.seeds:
+                d = measure(beta, seed, 0.0, a.cells_across, tmp)
+                n = measure(beta, seed, 0.5, a.cells_across, tmp)
+                ft.append(d["peak"])
+                fg.append(n["wf"])
+                print(f"beta_s {beta:5.2f} seed {seed}: F_T {d['peak']:.3f} (balance "
+                      f"{d['balance']:.4f}, {d['wall']:.0f} s)  F_G {n['wf']:.3f} (balance "
+                      f"{n['balance']:.4f}, {n['wall']:.0f} s)", flush=True)
+            FT_, FG_ = np.mean(ft), np.mean(fg)
+            rows.append((beta * FG_ / FT_ ** 2, FT_, FG_, np.std(ft), np.std(fg)))
+    print("\n    # beta, F_T, F_G      (± over seeds: F_T, F_G)")
+    for r in rows:
+        print(f"    [{r[0]:.3g}, {r[1]:.3f}, {r[2]:.3f}],   # ± {r[3]:.3f}, {r[4]:.3f}")
+
+
+if __name__ == "__main__":
+    os.environ.setdefault("NUMBA_NUM_THREADS", "1")
+    main_()
