@@ -152,7 +152,8 @@ class State:
     spring_kappa (S,) [m] largest opening; spring_dmg (S,) damage;
     spring_wp, spring_wf (S,) [J] plastic and fracture dissipation.
     Poisson correction scratch (length 0 unless Model.poisson_on; not
-    saved by checkpoints): aux_g (n_slots, 3) [1/m], aux_p (N,) [N m]."""
+    saved by checkpoints): aux_g (n_slots, 3) [1/m], aux_p (7, N)
+    (physics/poisson.py poisson_pass)."""
     body_pos: np.ndarray
     body_quat: np.ndarray
     body_vel: np.ndarray
@@ -198,7 +199,7 @@ def new_state(model):
     st.spring_wf = np.zeros(si)
     on = model.poisson_on
     st.aux_g = np.zeros((len(model.poisson.slot_cell) if on else 0, 3))
-    st.aux_p = np.zeros(n if on else 0)
+    st.aux_p = np.zeros((7, n if on else 0))
     refresh_all_rotations(n + 1, st.body_quat, model.body_quat0, st.body_rot, st.body_dq)
     return st
 

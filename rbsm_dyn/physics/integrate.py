@@ -220,7 +220,7 @@ def run_dynamic(n_steps, step0, dt, inelastic,
                 body_fext, body_mext, body_load_hist, gravity, damping_alpha,
                 dof_kind, dof_value, dof_hist, hist_ptr, hist_t, hist_a,
                 body_work, body_damp, body_reaction, poisson_on,
-                cell_slot_ptr, slot_cell, slot_rev, slot_g, slot_c0, slot_s0, slot_s1,
+                cell_slot_ptr, slot_cell, slot_rev, slot_g, cell_c0, slot_s0, slot_s1,
                 cell_lv, aux_g, aux_p):
     """Advance n_steps explicit steps inside compiled code.  Step order:
     springs at x_n (summed into the body wrenches) → auxiliary stress of
@@ -243,7 +243,7 @@ def run_dynamic(n_steps, step0, dt, inelastic,
                                 spring_arm_b, spring_frame0, spring_n0, spring_k, body_pos,
                                 body_rot, body_dq, body_wrench, body_support, False, spring_force)
         if poisson_on:
-            poisson_pass(inelastic, cell_slot_ptr, slot_cell, slot_rev, slot_g, slot_c0,
+            poisson_pass(inelastic, cell_slot_ptr, slot_cell, slot_rev, slot_g, cell_c0,
                          slot_s0, slot_s1, cell_lv, spring_state, spring_dmg, body_pos,
                          body_rot, aux_g, aux_p, body_wrench)
         dynamic_body_pass(t, dt, body_wrench, body_support,

@@ -52,15 +52,16 @@ Step (physics/integrate.py run_dynamic, physics/relax.py run_relax): after
 the spring pass, before the body pass, two parallel loops (no atomics; the
 same sums in the same order for any thread count):
 
-    1. per cell c: G_cj (stored per slot) and p_c;
-    2. per body i: wrench += p_i Σ_k G_ik − Σ_k p_j(k) G_j(k),rev(k), torque.
+    1. per cell c: G_cj (stored per slot), p_c, Σ_j G_cj, Σ_j G_cj × Δx_cj;
+    2. per body i: force p_i Σ_k G_ik − Σ_k p_j(k) G_j(k),rev(k),
+       torque −p_i Σ_k G_ik × Δx_ik.
 
 Arrays (PoissonArrays, built once by build_poisson; n_slots = 2 × internal faces):
   cell_slot_ptr (N+1,) int32: slots of cell c are cell_slot_ptr[c]:cell_slot_ptr[c+1];
   slot_cell (n_slots,) int32 neighbour j; slot_rev (n_slots,) int32 the
   slot (j → c); slot_g (n_slots, 3) [1/m] g̃ in c's principal frame;
-  slot_gw (n_slots, 3) [1/m] g in world axes (reference); slot_c0 (n_slots,)
-  g · Δx⁰; slot_s0, slot_s1 (n_slots,) int32 the face's spring points;
+  slot_gw (n_slots, 3) [1/m] g in world axes (reference); cell_c0 (N,)
+  Σ_j g_j · Δx_j⁰; slot_s0, slot_s1 (n_slots,) int32 the face's spring points;
   cell_lv (N,) [J] λ_c V_c.
 """
 from collections import namedtuple
@@ -73,7 +74,7 @@ JIT = dict(cache=True, nogil=True, fastmath={"contract"}, error_model="numpy")
 IDX = np.int32
 
 PoissonArrays = namedtuple("PoissonArrays", "cell_slot_ptr slot_cell slot_rev slot_g slot_gw "
-                                            "slot_c0 slot_s0 slot_s1 cell_lv")
+                                            "cell_c0 slot_s0 slot_s1 cell_lv")
 
 # below this many slots the two loops run serially (parallel regions cost more
 # than the work; same order of sums, so the same result: physics/springs.py)
@@ -116,7 +117,8 @@ def build_poisson(face_cells, face_area, cell_centroid, cell_volume, cell_lambda
     # pinv: a cell whose neighbours are coplanar gets the trace in their plane
     Ainv = np.linalg.pinv(A, hermitian=True)
     g = w[:, None] * np.einsum("kij,kj->ki", Ainv[c], dx)
-    c0 = np.einsum("ki,ki->k", g, dx)
+    # Σ_j g_j · Δx_j⁰ per cell (= tr(A⁺A): 3, or the rank of A)
+    cell_c0 = np.bincount(c, np.einsum("ki,ki->k", g, dx), minlength=n)
     g_body = np.einsum("kji,kj->ki", body_rot0[c], g)          # R0ᵀ g
     # spring points of each face (consecutive in the model's order)
     sf = np.asarray(spring_face)
@@ -129,7 +131,7 @@ def build_poisson(face_cells, face_area, cell_centroid, cell_volume, cell_lambda
     if np.any(s1 - s0 != count):
         raise ValueError("the spring points of a face are not consecutive")
     return PoissonArrays(ptr, j.astype(IDX), rev, np.ascontiguousarray(g_body),
-                         np.ascontiguousarray(g), c0, s0[face].astype(IDX),
+                         np.ascontiguousarray(g), cell_c0, s0[face].astype(IDX),
                          s1[face].astype(IDX), np.asarray(cell_lambda * cell_volume, float))
 
 
@@ -138,15 +140,21 @@ def build_poisson(face_cells, face_area, cell_centroid, cell_volume, cell_lambda
 
 
 @nb.njit(inline="always", **JIT)
-def _cell_pressure(c, damaged, cell_slot_ptr, slot_cell, slot_g, slot_c0, slot_s0, slot_s1,
-                   cell_lv, spring_state, spring_dmg, body_pos, body_rot, aux_g):
-    """θ_c of cell c (and its slots' G = R_c g̃ into aux_g) and χ_c."""
+def _cell_pressure(c, damaged, cell_slot_ptr, slot_cell, slot_g, cell_c0, slot_s0, slot_s1,
+                   spring_state, spring_dmg, body_pos, body_rot, aux_g, aux_p, sums):
+    """θ_c and χ_c of cell c.  Stores its slots' G = R_c g̃ in aux_g and,
+    if `sums`, Σ_j G_cj in aux_p[1:4, c] and Σ_j G_cj × (x_j − x_c) in
+    aux_p[4:7, c] (the body pass then needs no positions)."""
+    # indices are never negative: unsigned skips Numba's wraparound code
+    # (physics/springs.py)
+    c = np.uint64(c)
     R = body_rot[c]
     xc0, xc1, xc2 = body_pos[c, 0], body_pos[c, 1], body_pos[c, 2]
     th = 0.0
     chi = 1.0
-    for k in range(cell_slot_ptr[c], cell_slot_ptr[c + 1]):
-        j = slot_cell[k]
+    s0 = s1 = s2 = m0 = m1 = m2 = 0.0
+    for k in range(np.uint64(cell_slot_ptr[c]), np.uint64(cell_slot_ptr[c + np.uint64(1)])):
+        j = np.uint64(slot_cell[k])
         a0, a1, a2 = slot_g[k, 0], slot_g[k, 1], slot_g[k, 2]
         G0 = R[0, 0] * a0 + R[0, 1] * a1 + R[0, 2] * a2
         G1 = R[1, 0] * a0 + R[1, 1] * a1 + R[1, 2] * a2
@@ -154,92 +162,99 @@ def _cell_pressure(c, damaged, cell_slot_ptr, slot_cell, slot_g, slot_c0, slot_s
         aux_g[k, 0] = G0
         aux_g[k, 1] = G1
         aux_g[k, 2] = G2
-        th += (G0 * (body_pos[j, 0] - xc0) + G1 * (body_pos[j, 1] - xc1)
-               + G2 * (body_pos[j, 2] - xc2)) - slot_c0[k]
+        d0 = body_pos[j, 0] - xc0
+        d1 = body_pos[j, 1] - xc1
+        d2 = body_pos[j, 2] - xc2
+        th += G0 * d0 + G1 * d1 + G2 * d2
+        s0 += G0
+        s1 += G1
+        s2 += G2
+        m0 += G1 * d2 - G2 * d1
+        m1 += G2 * d0 - G0 * d2
+        m2 += G0 * d1 - G1 * d0
         if damaged:
             for s in range(slot_s0[k], slot_s1[k]):
                 x = 0.0 if spring_state[s] >= 2 else 1.0 - spring_dmg[s]
                 chi = min(chi, x)
-    return th, chi
+    if sums:
+        aux_p[1, c] = s0
+        aux_p[2, c] = s1
+        aux_p[3, c] = s2
+        aux_p[4, c] = m0
+        aux_p[5, c] = m1
+        aux_p[6, c] = m2
+    return th - cell_c0[c], chi
 
 
 @nb.njit(inline="always", **JIT)
-def _body_wrench(i, cell_slot_ptr, slot_cell, slot_rev, aux_g, aux_p, body_pos, body_wrench):
-    """Add the auxiliary force and torque on body i (forces of its own term
-    and of its neighbours' terms, in slot order)."""
-    p = aux_p[i]
-    f0 = f1 = f2 = t0 = t1 = t2 = 0.0
-    xi0, xi1, xi2 = body_pos[i, 0], body_pos[i, 1], body_pos[i, 2]
-    for k in range(cell_slot_ptr[i], cell_slot_ptr[i + 1]):
-        j = slot_cell[k]
-        r = slot_rev[k]
-        G0, G1, G2 = aux_g[k, 0], aux_g[k, 1], aux_g[k, 2]
-        pj = aux_p[j]
-        f0 += p * G0 - pj * aux_g[r, 0]
-        f1 += p * G1 - pj * aux_g[r, 1]
-        f2 += p * G2 - pj * aux_g[r, 2]
-        d0 = body_pos[j, 0] - xi0
-        d1 = body_pos[j, 1] - xi1
-        d2 = body_pos[j, 2] - xi2
-        # −p G × Δx
-        t0 -= p * (G1 * d2 - G2 * d1)
-        t1 -= p * (G2 * d0 - G0 * d2)
-        t2 -= p * (G0 * d1 - G1 * d0)
-    body_wrench[i, 0] += f0
-    body_wrench[i, 1] += f1
-    body_wrench[i, 2] += f2
-    body_wrench[i, 3] += t0
-    body_wrench[i, 4] += t1
-    body_wrench[i, 5] += t2
+def _body_wrench(i, cell_slot_ptr, slot_cell, slot_rev, aux_g, aux_p, body_wrench):
+    """Add the auxiliary force and torque on body i: its own term
+    (p_i Σ G_ik, −p_i Σ G_ik × Δx_ik, summed by _cell_pressure) and its
+    neighbours' terms (−p_j G_j,rev(k), in slot order)."""
+    i = np.uint64(i)
+    f0 = f1 = f2 = 0.0
+    for k in range(np.uint64(cell_slot_ptr[i]), np.uint64(cell_slot_ptr[i + np.uint64(1)])):
+        r = np.uint64(slot_rev[k])
+        pj = aux_p[0, np.uint64(slot_cell[k])]
+        f0 += pj * aux_g[r, 0]
+        f1 += pj * aux_g[r, 1]
+        f2 += pj * aux_g[r, 2]
+    p = aux_p[0, i]
+    body_wrench[i, 0] += p * aux_p[1, i] - f0
+    body_wrench[i, 1] += p * aux_p[2, i] - f1
+    body_wrench[i, 2] += p * aux_p[3, i] - f2
+    body_wrench[i, 3] -= p * aux_p[4, i]
+    body_wrench[i, 4] -= p * aux_p[5, i]
+    body_wrench[i, 5] -= p * aux_p[6, i]
 
 
 @nb.njit(parallel=True, **JIT)
-def _pressures_parallel(damaged, cell_slot_ptr, slot_cell, slot_g, slot_c0, slot_s0, slot_s1,
+def _pressures_parallel(damaged, cell_slot_ptr, slot_cell, slot_g, cell_c0, slot_s0, slot_s1,
                         cell_lv, spring_state, spring_dmg, body_pos, body_rot, aux_g, aux_p):
     for c in nb.prange(cell_lv.shape[0]):
-        th, chi = _cell_pressure(c, damaged, cell_slot_ptr, slot_cell, slot_g, slot_c0,
-                                 slot_s0, slot_s1, cell_lv, spring_state, spring_dmg,
-                                 body_pos, body_rot, aux_g)
-        aux_p[c] = cell_lv[c] * chi * th
+        th, chi = _cell_pressure(c, damaged, cell_slot_ptr, slot_cell, slot_g, cell_c0,
+                                 slot_s0, slot_s1, spring_state, spring_dmg,
+                                 body_pos, body_rot, aux_g, aux_p, True)
+        aux_p[0, c] = cell_lv[c] * chi * th
 
 
 @nb.njit(parallel=True, **JIT)
-def _wrenches_parallel(cell_slot_ptr, slot_cell, slot_rev, aux_g, aux_p, body_pos, body_wrench):
-    for i in nb.prange(aux_p.shape[0]):
-        _body_wrench(i, cell_slot_ptr, slot_cell, slot_rev, aux_g, aux_p, body_pos, body_wrench)
+def _wrenches_parallel(cell_slot_ptr, slot_cell, slot_rev, aux_g, aux_p, body_wrench):
+    for i in nb.prange(aux_p.shape[1]):
+        _body_wrench(i, cell_slot_ptr, slot_cell, slot_rev, aux_g, aux_p, body_wrench)
 
 
 @nb.njit(**JIT)
-def poisson_pass(damaged, cell_slot_ptr, slot_cell, slot_rev, slot_g, slot_c0, slot_s0,
+def poisson_pass(damaged, cell_slot_ptr, slot_cell, slot_rev, slot_g, cell_c0, slot_s0,
                  slot_s1, cell_lv, spring_state, spring_dmg, body_pos, body_rot, aux_g, aux_p,
                  body_wrench):
     """Add the auxiliary-stress wrenches (module docstring) to body_wrench.
     `damaged`: scale each cell's term by χ_c from spring_state and
     spring_dmg (inelastic models; otherwise those may be empty).
-    Scratch: aux_g (n_slots, 3), aux_p (N,)."""
+    Scratch: aux_g (n_slots, 3) [1/m], aux_p (7, N): p_c [N m], Σ_j G_cj
+    [1/m], Σ_j G_cj × Δx_cj [1]."""
     n = cell_lv.shape[0]
     if slot_cell.shape[0] < SERIAL_SLOTS:
         for c in range(n):
-            th, chi = _cell_pressure(c, damaged, cell_slot_ptr, slot_cell, slot_g, slot_c0,
-                                     slot_s0, slot_s1, cell_lv, spring_state, spring_dmg,
-                                     body_pos, body_rot, aux_g)
-            aux_p[c] = cell_lv[c] * chi * th
+            th, chi = _cell_pressure(c, damaged, cell_slot_ptr, slot_cell, slot_g, cell_c0,
+                                     slot_s0, slot_s1, spring_state, spring_dmg,
+                                     body_pos, body_rot, aux_g, aux_p, True)
+            aux_p[0, c] = cell_lv[c] * chi * th
         for i in range(n):
-            _body_wrench(i, cell_slot_ptr, slot_cell, slot_rev, aux_g, aux_p, body_pos,
-                         body_wrench)
+            _body_wrench(i, cell_slot_ptr, slot_cell, slot_rev, aux_g, aux_p, body_wrench)
         return
-    _pressures_parallel(damaged, cell_slot_ptr, slot_cell, slot_g, slot_c0, slot_s0, slot_s1,
+    _pressures_parallel(damaged, cell_slot_ptr, slot_cell, slot_g, cell_c0, slot_s0, slot_s1,
                         cell_lv, spring_state, spring_dmg, body_pos, body_rot, aux_g, aux_p)
-    _wrenches_parallel(cell_slot_ptr, slot_cell, slot_rev, aux_g, aux_p, body_pos, body_wrench)
+    _wrenches_parallel(cell_slot_ptr, slot_cell, slot_rev, aux_g, aux_p, body_wrench)
 
 
 @nb.njit(parallel=True, **JIT)
-def _theta_chi(damaged, cell_slot_ptr, slot_cell, slot_g, slot_c0, slot_s0, slot_s1, cell_lv,
+def _theta_chi(damaged, cell_slot_ptr, slot_cell, slot_g, cell_c0, slot_s0, slot_s1,
                spring_state, spring_dmg, body_pos, body_rot, aux_g, out_theta, out_chi):
-    for c in nb.prange(cell_lv.shape[0]):
-        th, chi = _cell_pressure(c, damaged, cell_slot_ptr, slot_cell, slot_g, slot_c0,
-                                 slot_s0, slot_s1, cell_lv, spring_state, spring_dmg,
-                                 body_pos, body_rot, aux_g)
+    for c in nb.prange(out_theta.shape[0]):
+        th, chi = _cell_pressure(c, damaged, cell_slot_ptr, slot_cell, slot_g, cell_c0,
+                                 slot_s0, slot_s1, spring_state, spring_dmg,
+                                 body_pos, body_rot, aux_g, aux_g, False)
         out_theta[c] = th
         out_chi[c] = chi
 
@@ -251,8 +266,8 @@ def cell_dilatation(aux, body_pos, body_rot, spring_state=None, spring_dmg=None)
     st = spring_state if damaged else np.zeros(0, dtype=np.int8)
     dm = spring_dmg if damaged else np.zeros(0)
     theta, chi = np.empty(n), np.empty(n)
-    _theta_chi(damaged, aux.cell_slot_ptr, aux.slot_cell, aux.slot_g, aux.slot_c0, aux.slot_s0,
-               aux.slot_s1, aux.cell_lv, st, dm, body_pos, body_rot,
+    _theta_chi(damaged, aux.cell_slot_ptr, aux.slot_cell, aux.slot_g, aux.cell_c0,
+               aux.slot_s0, aux.slot_s1, st, dm, body_pos, body_rot,
                np.empty((len(aux.slot_cell), 3)), theta, chi)
     return theta, chi
 
@@ -304,5 +319,5 @@ def poisson_args(model, state):
     """The arguments of poisson_pass after `damaged` for a model and state
     (Python side: run_dynamic, run_relax, output passes)."""
     a = model.poisson
-    return (a.cell_slot_ptr, a.slot_cell, a.slot_rev, a.slot_g, a.slot_c0, a.slot_s0,
+    return (a.cell_slot_ptr, a.slot_cell, a.slot_rev, a.slot_g, a.cell_c0, a.slot_s0,
             a.slot_s1, a.cell_lv, state.aux_g, state.aux_p)

@@ -142,7 +142,7 @@ def run_relax(n_iter, lam, kind, beta, c, reset,
               body_quat0, body_vel, body_angmom, body_rot, body_dq, body_fext, body_mext,
               gravity, dof_kind, dof_value, arm_length, body_resid, body_reaction,
               body_theta, body_rprev, body_num, body_den, poisson_on,
-              cell_slot_ptr, slot_cell, slot_rev, slot_g, slot_c0, slot_s0, slot_s1,
+              cell_slot_ptr, slot_cell, slot_rev, slot_g, cell_c0, slot_s0, slot_s1,
               cell_lv, aux_g, aux_p):
     """n_iter relaxation steps inside compiled code (springs, then the
     auxiliary stress of the Poisson correction if `poisson_on`, then
@@ -163,7 +163,7 @@ def run_relax(n_iter, lam, kind, beta, c, reset,
                                 spring_arm_b, spring_frame0, spring_n0, spring_k, body_pos,
                                 body_rot, body_dq, body_wrench, body_support, False, spring_force)
         if poisson_on:
-            poisson_pass(inelastic, cell_slot_ptr, slot_cell, slot_rev, slot_g, slot_c0,
+            poisson_pass(inelastic, cell_slot_ptr, slot_cell, slot_rev, slot_g, cell_c0,
                          slot_s0, slot_s1, cell_lv, spring_state, spring_dmg, body_pos,
                          body_rot, aux_g, aux_p, body_wrench)
         relax_body_pass(lam, kind, beta, c, first, body_wrench, body_support, body_mass_real,
