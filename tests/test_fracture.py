@@ -133,6 +133,65 @@ def test_E1_griffith_scaling(run_case):
     assert ratio == pytest.approx(feddersen, rel=0.10)
 
 
+def lefm_case(a_cells, n=40, W=0.1, E=60.0e9, ft=20.0e6, beta=2.0, ramp=2.0e-4):
+    """A square plate (blocks n × 1 × n, ν = 0) with a central crack of
+    half-length a = a_cells·Δ along z = W/2, material f_t and G_f (mixed-mode
+    law, `values: material`) with l_ch = E G_f/f_t² = β Δ, pulled on its top
+    and bottom rows by a traction ramped to twice the LEFM failure stress
+    over `ramp` (40 wave transits of the plate).  Returns the case, the
+    stress rate and σ_LEFM = √(E G_f)/√(πa) / √sec(πa/W) (Irwin; Feddersen's
+    finite-width factor of a centre crack, Tada, Paris & Irwin)."""
+    d = W / n
+    a = a_cells * d
+    gf = beta * d * ft ** 2 / E
+    lefm = np.sqrt(E * gf) / np.sqrt(np.pi * a) / np.sqrt(1 / np.cos(np.pi * a / W))
+    F = 2 * lefm * W * d
+    return f"""
+    name: lefm
+    domain: {{box: [[0, 0, 0], [{W}, {d}, {W}]]}}
+    mesh: {{kind: blocks, divisions: [{n}, 1, {n}]}}
+    materials:
+      glass: {{density: 2500, young: {E}, poisson: 0.0,
+               rupture: {{fracture_energy: {gf}, tensile_strength: {ft}}}}}
+    groups:
+      top: {{box: [[-1, -1, {W - d / 2}], [1, 1, 1]]}}
+      bottom: {{box: [[-1, -1, -1], [1, 1, {d / 2}]]}}
+    cuts: [{{point: [0, 0, {W / 2}], normal: [0, 0, 1],
+             within: [[{W / 2 - a}, -1, {W / 2 - d / 4}], [{W / 2 + a}, 1, {W / 2 + d / 4}]]}}]
+    loads:
+      - {{group: top, force: [0, 0, {F}], history: [[0, 0], [{ramp}, 1]]}}
+      - {{group: bottom, force: [0, 0, {-F}], history: [[0, 0], [{ramp}, 1]]}}
+    solver: {{mode: dynamic, end_time: {0.7 * ramp}}}
+    output: {{interval: 5.0e-7, fields: [position]}}
+    """, 2 * lefm / ramp, lefm
+
+
+def test_E1_griffith_failure_stress_against_lefm(run_case):
+    """VERIFICATION E1 with the material's G_f and f_t (mixed-mode law):
+    the stress at which the centre crack runs (it has grown by a cell at
+    each tip, and it runs through the plate by the end) lies within ±20 % of
+    LEFM's σc = √(E G_f/(πa)) with the finite-width correction, at a = 4
+    and 8 cells, and the ratio of the two within ±10 % of LEFM's (√2 times
+    the ratio of the width factors).  The energy balance closes within
+    1 % of the work."""
+    sigma, lefm = [], []
+    for a_cells in (4, 8):
+        text, rate, s_lefm = lefm_case(a_cells)
+        h = run_case(text)
+        ob = h.observables
+        grown = ob["n_broken"] - ob["n_broken"][0]
+        k = np.argmax(grown >= 2 * 4 * 2)        # two faces (4 points each) at each tip
+        assert k > 0 and grown[-1] >= 4 * (40 - 2 * a_cells)   # ... and ran through
+        sigma.append(rate * h.time[k])
+        lefm.append(s_lefm)
+        balance = (ob["kinetic"] + ob["strain"] + ob["plastic"] + ob["fracture"]
+                   + ob["damping"] - ob["external_work"])
+        assert np.abs(balance).max() <= 1e-2 * ob["external_work"].max()
+    for s, ref in zip(sigma, lefm):
+        assert s == pytest.approx(ref, rel=0.20)
+    assert sigma[0] / sigma[1] == pytest.approx(lefm[0] / lefm[1], rel=0.10)
+
+
 def test_shattering_run_stays_finite_and_bounded(run_case):
     """A glass cube (7 × 7 × 7 blocks) thrown at 300 m/s onto a support that
     can break: thousands of springs rupture, cracks open, close, slide and
