@@ -394,7 +394,7 @@ def rupture_case(dt_safety, mesh="{kind: voronoi, size: 0.02, seed: 4}"):
         mesh: {mesh}
         materials:
           glass: {RUPTURE_MATERIAL}
-        boundary: [{{face: zmin, fix: all}}]
+        boundary: [{{face: zmin, fix: all, breakable: true}}]
         initial: [{{velocity: [20.0, 0, -300.0]}}]
         solver: {{mode: dynamic, end_time: 1.0, dt_safety: {dt_safety}}}
         """)

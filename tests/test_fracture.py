@@ -204,7 +204,7 @@ def test_shattering_run_stays_finite_and_bounded(run_case):
     mesh: {kind: blocks, divisions: [7, 7, 7]}
     materials:
       glass: {density: 2500, young: 60.0e9, poisson: 0.0, rupture: {strain: 1.0e-3}, friction: 0.3}
-    boundary: [{face: zmin, fix: all}]
+    boundary: [{face: zmin, fix: all, breakable: true}]
     initial: [{velocity: [20.0, 0, -300.0]}]
     solver: {mode: dynamic, end_time: 1.0}
     output: {interval: 2.0e-3, fields: [position, spring_state]}

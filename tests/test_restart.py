@@ -29,7 +29,7 @@ domain: {box: [[0, 0, 0], [0.04, 0.04, 0.04]]}
 mesh: {kind: blocks, divisions: [4, 4, 4]}
 materials:
   glass: {density: 2500, young: 60.0e9, poisson: 0.0, rupture: {strain: 1.0e-3}, friction: 0.3}
-boundary: [{face: zmin, fix: all}]
+boundary: [{face: zmin, fix: all, breakable: true}]
 initial: [{velocity: [20.0, 0, -300.0]}]
 solver: {mode: dynamic, end_time: 8.0e-4}
 output:

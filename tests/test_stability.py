@@ -270,7 +270,7 @@ def rupture_run(n_steps=300, every=5):
     mesh: {{kind: voronoi, size: 0.025, seed: 4}}
     materials:
       glass: {GLASS}
-    boundary: [{{face: zmin, fix: all}}]
+    boundary: [{{face: zmin, fix: all, breakable: true}}]
     initial: [{{velocity: [20.0, 0, -300.0]}}]
     solver: {{mode: dynamic, end_time: 1.0, dt_safety: 1.0}}
     """)
