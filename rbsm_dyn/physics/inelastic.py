@@ -115,8 +115,8 @@ def _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
                         dmg = dnew
                         spring_dmg[s] = dmg
             elif rupt == MIXED:
-                dnew = mixed_mode_damage(en, es, et, kn / area, ks / area, P[P_FT], P[P_GF],
-                                         P[P_RS], P[P_GS])
+                dnew = mixed_mode_damage(en, es, et, kn / area, ks / area, kt / area, P[P_FT],
+                                         P[P_GF], P[P_RS], P[P_GS])
                 if dnew > dmg:
                     # Y = −∂U/∂D, U = ½ (1 − D)(kn ⟨en⟩² + ks es² + kt et²) + ½ kn ⟨−en⟩²
                     pn = en if en > 0.0 else 0.0

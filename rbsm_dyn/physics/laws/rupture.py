@@ -74,29 +74,33 @@ def csl_strength(s, c2, alpha, ft, r):
 
 
 @nb.njit(inline="always", **JIT)
-def mixed_mode_damage(en, es, et, kn, ks, ft, gt, r, gs):
+def mixed_mode_damage(en, es, et, kn, ks, kt, ft, gt, r, gs):
     """Damage D of the mixed-mode law at the elastic gap (en, es, et) [m]
-    (per-area stiffnesses kn, ks [Pa/m]; tensile strength ft [Pa], mode-I
-    energy gt, mode-II energy gs [J/m²], r = f_s/f_t).
+    (per-area stiffnesses kn, ks, kt [Pa/m]; tensile strength ft [Pa],
+    mode-I energy gt, mode-II energy gs [J/m²], r = f_s/f_t).
 
-    Equivalent opening w = √(en² + α τ²) with α = ks/kn, so that the
-    stored energy is ½ (1 − D) kn w² and t_eq = (1 − D) kn w (CSL, Cusatis
-    et al. 2011); direction tan ω = en/(√α |eτ|).  Linear softening of t_eq
-    in w from the strength t0(ω) at w0 = t0/kn to zero at wu = 2 G(ω)/t0
-    (Bažant & Oh 1983, crack band: the area under the curve is G(ω)), so a
-    radial path dissipates G(ω) per unit area: G = gt in pure tension, gs in
-    pure shear, G = gs + (gt − gs) sin²ω between (ω ≥ 0), and under
-    compression (ω < 0) G = gs (t0(ω)/t0(0))², i.e. the constant softening
-    slope of pure shear (CSL's H0 = H_s for ω < 0).  The caller keeps D
-    non-decreasing (D = max over the history)."""
-    alpha = ks / kn
-    tau2 = es * es + et * et
-    w2 = en * en + alpha * tau2
+    Equivalent opening w = √(en² + (ks es² + kt et²)/kn), so that the
+    stored energy is ½ (1 − D) kn w² in tension and t_eq = (1 − D) kn w
+    (CSL, Cusatis et al. 2011, with α = ks/kn); direction tan ω =
+    en/√((ks es² + kt et²)/kn).  Linear softening of t_eq in w from the
+    strength t0(ω) at w0 = t0/kn to zero at wu = 2 G(ω)/t0 (Bažant & Oh
+    1983, crack band: the area under the curve is G(ω)), so a radial path
+    dissipates G(ω) per unit area: G = gt in pure tension, gs in pure shear,
+    G = gs + (gt − gs) sin²ω between (ω ≥ 0), and under compression (ω < 0)
+    G = gs (t0(ω)/t0(0))², i.e. the constant softening slope of pure shear
+    (CSL's H0 = H_s for ω < 0).  A support that holds no normal component
+    (kn = 0) never breaks.  The caller keeps D non-decreasing (D = max over
+    the history)."""
+    if kn <= 0.0:
+        return 0.0
+    shear = (ks * es * es + kt * et * et) / kn
+    w2 = en * en + shear
     if w2 <= 0.0:
         return 0.0
+    alpha = (ks if ks > kt else kt) / kn
     w = math.sqrt(w2)
     s = en / w
-    c2 = alpha * tau2 / w2
+    c2 = shear / w2
     t0 = csl_strength(s, c2, alpha, ft, r)
     w0 = t0 / kn
     if w <= w0:
