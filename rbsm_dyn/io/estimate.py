@@ -17,7 +17,9 @@
   explicit State, plus the per-frame output buffers (the peak of a dynamic
   or static run; Python and Numba themselves add about 150 MB).  Linear and
   modal modes add the assembled sparse stiffness (36 entries per body and 72
-  per touching pair, 12 bytes each, twice for the conversion to CSR), before
+  per touching pair, plus 9 per pair of bodies that share a neighbour when
+  the Poisson correction is on; 12 bytes each, twice for the conversion to
+  CSR), before
   the solver's own work space (a direct factorization takes several times
   that).
 """
@@ -182,6 +184,12 @@ def estimate(case, model, *, extra_observables=None, threads=1) -> Estimate:
     if case.solver.mode in ("linear", "modal"):
         pairs = len({(int(a), int(b)) for a, b in np.asarray(model.spring_bodies)})
         nnz = 36 * model.n_bodies + 72 * pairs
+        if model.poisson_on:
+            # the Poisson correction's Bᵀ diag(λV) B couples every two
+            # neighbours of a cell: 9 entries per body pair of SᵀS (upper bound)
+            from ..physics.poisson import poisson_B
+            S = abs(poisson_B(model.poisson, model.n_bodies)[:, ::6]).astype(bool)
+            nnz += 9 * (S.T @ S).nnz
         matrix = 2 * 12 * nnz
     return Estimate(mode=case.solver.mode, n_bodies=model.n_bodies,
                     n_springs=model.n_springs, n_supports=int(model.is_support.sum()),

@@ -109,7 +109,9 @@ def build_poisson(face_cells, face_area, cell_centroid, cell_volume, cell_lambda
     ptr = np.concatenate([[0], np.cumsum(np.bincount(c, minlength=n))]).astype(IDX)
     key = c * n + j
     rev = np.searchsorted(key, j * n + c).astype(IDX)
-    # least-squares gradient from the neighbours' centroids, weight w = A_f/|Δx|²
+    # least-squares gradient from the neighbours' centroids (the weighted
+    # least-squares reconstruction of finite-volume codes, e.g. Blazek,
+    # Computational Fluid Dynamics, §5.3.3): G = Σ w Δu Δxᵀ A⁻¹, weight w = A_f/|Δx|²
     dx = cell_centroid[j] - cell_centroid[c]
     w = face_area[face] / np.einsum("ki,ki->k", dx, dx)
     A = np.zeros((n, 3, 3))
