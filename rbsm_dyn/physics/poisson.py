@@ -46,7 +46,10 @@ face's share has the opposite sign of θ_c, i.e. damage would create energy;
 with χ_c a non-increasing function of time (damage never heals, a broken
 spring stays broken) and θ_c independent of damage, U_aux at fixed
 positions can only fall when damage grows.  That fall is dissipated with
-the crack and is not booked in the `fracture` observable.
+the crack and is not booked in the `fracture` observable (so the balance
+of a fracturing run shows it as a small loss, never a gain).  Yield
+(plastic springs) leaves the auxiliary stress elastic: the volumetric
+response stays elastic, as in J2 plasticity.
 
 Step (physics/integrate.py run_dynamic, physics/relax.py run_relax): after
 the spring pass, before the body pass, two parallel loops (no atomics; the
@@ -114,14 +117,21 @@ def build_poisson(face_cells, face_area, cell_centroid, cell_volume, cell_lambda
     # Computational Fluid Dynamics, §5.3.3): G = Σ w Δu Δxᵀ A⁻¹, weight w = A_f/|Δx|²
     dx = cell_centroid[j] - cell_centroid[c]
     w = face_area[face] / np.einsum("ki,ki->k", dx, dx)
-    A = np.zeros((n, 3, 3))
-    np.add.at(A, c, w[:, None, None] * dx[:, :, None] * dx[:, None, :])
+    # (per component: no (n_slots, 3, 3) temporaries on large models)
+    A = np.empty((n, 3, 3))
+    for p in range(3):
+        for q in range(p, 3):
+            A[:, p, q] = A[:, q, p] = np.bincount(c, w * dx[:, p] * dx[:, q], minlength=n)
     # pinv: a cell whose neighbours are coplanar gets the trace in their plane
     Ainv = np.linalg.pinv(A, hermitian=True)
-    g = w[:, None] * np.einsum("kij,kj->ki", Ainv[c], dx)
+    g = np.empty_like(dx)
+    for p in range(3):
+        g[:, p] = w * sum(Ainv[c, p, q] * dx[:, q] for q in range(3))
     # Σ_j g_j · Δx_j⁰ per cell (= tr(A⁺A): 3, or the rank of A)
     cell_c0 = np.bincount(c, np.einsum("ki,ki->k", g, dx), minlength=n)
-    g_body = np.einsum("kji,kj->ki", body_rot0[c], g)          # R0ᵀ g
+    g_body = np.empty_like(g)                                   # R0ᵀ g
+    for p in range(3):
+        g_body[:, p] = sum(body_rot0[c, q, p] * g[:, q] for q in range(3))
     # spring points of each face (consecutive in the model's order)
     sf = np.asarray(spring_face)
     internal = np.nonzero(sf >= 0)[0]
