@@ -311,10 +311,14 @@ def test_dynamic_run_conserves_momentum():
     assert np.abs(j1 - j0).max() <= 1e-12 * js
 
 
-def test_one_and_two_threads_are_bitwise_equal(tmp_path):
+@pytest.mark.parametrize("law", ["", ", rupture: {strain: 1.0e-4}"])
+def test_one_and_two_threads_are_bitwise_equal(tmp_path, law):
+    """Elastic, and with rupture (the damaged path: χ_c from the springs'
+    states and damage, springs breaking during the run)."""
     case = tmp_path / "c.yaml"
     case.write_text(DYNAMIC.replace("end_time: 2.0e-4", "end_time: 5.0e-5")
-                    .replace("size: 0.05", "size: 0.02"), encoding="utf-8")
+                    .replace("size: 0.05", "size: 0.02")
+                    .replace("poisson: 0.4}", "poisson: 0.4" + law + "}"), encoding="utf-8")
     code = textwrap.dedent(f"""
         import numpy as np, sys
         from rbsm_dyn.case import load_case
@@ -323,11 +327,14 @@ def test_one_and_two_threads_are_bitwise_equal(tmp_path):
         case = load_case({str(case)!r})
         m = build_model(case)
         assert m.poisson_on and len(m.poisson.slot_cell) > 4096      # the parallel path
+        assert m.inelastic == {bool(law)}
         st = new_state(m)
         st.dt, _ = choose_dt(case, m)
         apply_initial(case, m, st)
         start_half_step(m, st)
-        advance(m, st, 20)
+        advance(m, st, 30)
+        if m.inelastic:
+            assert np.count_nonzero(st.spring_state >= 2) > 0         # springs broke
         np.save(sys.argv[1], np.concatenate([st.body_pos.ravel(), st.body_angmom.ravel()]))
         """)
     out = {}
