@@ -90,13 +90,13 @@ def mixed_mode_damage(en, es, et, kn, ks, kt, ft, gt, r, gs):
     G = gs (t0(ω)/t0(0))², i.e. the constant softening slope of pure shear
     (CSL's H0 = H_s for ω < 0).  A support that holds no normal component
     (kn = 0) never breaks.  The caller keeps D non-decreasing (D = max over
-    the history)."""
+    the history).  Returns (D, w)."""
     if kn <= 0.0:
-        return 0.0
+        return 0.0, 0.0
     shear = (ks * es * es + kt * et * et) / kn
     w2 = en * en + shear
     if w2 <= 0.0:
-        return 0.0
+        return 0.0, 0.0
     alpha = (ks if ks > kt else kt) / kn
     w = math.sqrt(w2)
     s = en / w
@@ -104,7 +104,7 @@ def mixed_mode_damage(en, es, et, kn, ks, kt, ft, gt, r, gs):
     t0 = csl_strength(s, c2, alpha, ft, r)
     w0 = t0 / kn
     if w <= w0:
-        return 0.0
+        return 0.0, w
     if s >= 0.0:
         g = gs + (gt - gs) * s * s
     else:
@@ -112,5 +112,5 @@ def mixed_mode_damage(en, es, et, kn, ks, kt, ft, gt, r, gs):
         g = gs * (t0 / t00) * (t0 / t00)
     wu = 2.0 * g / t0
     if wu <= w0 or w >= wu:
-        return 1.0
-    return wu * (w - w0) / (w * (wu - w0))
+        return 1.0, w
+    return wu * (w - w0) / (w * (wu - w0)), w
