@@ -26,16 +26,17 @@ spring point as given.
 import numpy as np
 
 # Voronoi (mesh/voronoi.py, min_spacing 0.5, default spring points), law
-# mixed_mode at its default shear values, ν = 0: (β, F_T, F_G) against the
+# mixed_mode at its default shear values, ν = 0, double-edge-notched and
+# direct tension prisms 8 cells wide: (β, F_T, F_G) against the
 # material's brittleness β = l_ch/Δ = E G_f/(f_t² Δ) (Hillerborg's
 # characteristic length over the cell size), measured by
 # benchmarks/calibrate_fracture.py (docs/calibration.md, "Fracture").
 VORONOI_FRACTURE = np.array([
-    # beta, F_T, F_G
-    [1.56, 1.004, 1.563],
-    [2.47, 1.089, 1.465],
-    [5.08, 1.190, 1.438],
-    [10.6, 1.272, 1.432],
+    # beta, F_T, F_G     (β_s = 1, 2, 3, 10; F_T seeds 1-2 (β_s 2: 1); F_G seeds 1-4,
+    [1.93, 0.999, 1.927],   # 1-4, 1-6, 1-2)
+    [3.05, 1.089, 1.806],
+    [4.00, 1.140, 1.732],
+    [9.99, 1.280, 1.636],
 ])
 
 
@@ -66,8 +67,8 @@ def tension_specimen(*, cell, cells_across=8, notch=0.5, young=30.0e9, density=2
     """YAML text of the calibration specimens (docs/calibration.md,
     "Fracture"): a Voronoi prism W × W × 2W (W = cells_across × cell) on a
     support on zmin holding z, pulled along z at its top cell layer at a
-    constant velocity (ramped over 10 wave transits), with a single-edge
-    notch cut half-way up over `notch` × W (0: direct tension).  Give the
+    constant velocity (ramped over 10 wave transits), with two edge notches
+    cut half-way up, `notch` × W deep in all (0: direct tension).  Give the
     fracture energy or the brittleness β = l_ch/Δ.  The velocity is `rate`
     × f_t/(ρ c0), a quarter of the particle velocity of a stress wave of f_t,
     so that the specimen is loaded quasi-statically; the run ends after the
@@ -85,8 +86,14 @@ def tension_specimen(*, cell, cells_across=8, notch=0.5, young=30.0e9, density=2
                        + L * tensile_strength / young) / v, 3 * ramp)
     cut = ""
     if notch > 0:
+        # two edge notches, notch/2 × W deep each, at mid-height: a symmetric
+        # ligament (no bending), cut across a band of one cell either side
+        # of the plane (a Voronoi face crossing it has its points there)
+        z0, z1, d = L / 2 - cell, L / 2 + cell, notch * W / 2
         cut = (f"cuts: [{{point: [0, 0, {L / 2!r}], normal: [0, 0, 1], within: [[-1, -1, "
-               f"{L / 2 - cell!r}], [{notch * W!r}, 1, {L / 2 + cell!r}]]}}]")
+               f"{z0!r}], [{d!r}, 1, {z1!r}]]}},\n"
+               f"       {{point: [0, 0, {L / 2!r}], normal: [0, 0, 1], within: [[{W - d!r}, "
+               f"-1, {z0!r}], [1, 1, {z1!r}]]}}]")
     text = f"""\
 name: tension-specimen
 domain: {{box: [[0, 0, 0], [{W!r}, {W!r}, {L!r}]]}}

@@ -1,0 +1,67 @@
+"""Fracture calibration (rbsm_dyn/fracture_calibration.py, docs/calibration.md
+"Fracture"): with the material's f_t and G_f given (`rupture.values:
+material`, the default) a Voronoi lattice dissipates G_f per unit of
+projected crack area in a notched tension specimen, at two cell sizes, and
+a homogeneous specimen fails at f_t (issue 11).  Each figure is the mean of
+two meshes (seeds 7 and 8, not among the seeds of the calibration table).
+Tolerances: f_t within 5 %; G_f within 12 %, twice the standard deviation of
+a two-specimen mean, since one 8-cell-wide specimen scatters by ±9 % with
+its crack path (docs/calibration.md, "Fracture": the issue's 5 % needs larger
+specimens or more of them)."""
+import numpy as np
+import pytest
+
+from rbsm_dyn.fracture_calibration import brittleness, fracture_ratios, tension_specimen
+
+E, FT = 30.0e9, 3.0e6          # concrete-like; only β = l_ch/Δ matters
+GF = 1.8                       # J/m²: l_ch = E G_f/f_t² = 6 mm
+SEEDS = (7, 8)
+W = 0.016                      # specimen width [m]
+
+
+def test_brittleness_is_hillerborgs_length_over_the_cell():
+    """β = E G_f/(f_t² Δ) (Hillerborg, Modéer & Petersson 1976); blocks
+    need no calibration."""
+    assert brittleness(E, GF, FT, 0.002) == pytest.approx(3.0, rel=1e-12)
+    assert fracture_ratios("blocks", E, GF, FT, 0.002) == (1.0, 1.0)
+
+
+def balance_error(h):
+    ob = h.observables
+    balance = (ob["kinetic"] + ob["strain"] + ob["plastic"] + ob["fracture"] + ob["damping"]
+               - ob["external_work"])
+    return np.abs(balance).max() / ob["external_work"].max()
+
+
+@pytest.mark.parametrize("cell", [0.002, 0.0016])
+def test_notched_specimen_dissipates_gf_per_projected_area(run_case, cell):
+    """Double-edge-notched prism (half the width cut) pulled apart: the
+    fracture dissipation at full separation is G_f × ligament area (the
+    projected crack area) within 12 %, at two cell sizes (β = 3 and 3.75);
+    the energy balance closes within 1 % of the work."""
+    dissipated = []
+    for seed in SEEDS:
+        text, area, gf = tension_specimen(cell=cell, cells_across=round(W / cell), notch=0.5,
+                                          young=E, tensile_strength=FT, fracture_energy=GF,
+                                          seed=seed)
+        h = run_case(text)
+        wf = h.observables["fracture"]
+        # separated: the last quarter of the run adds little to the dissipation
+        assert wf[-1] - wf[3 * len(wf) // 4] < 5e-2 * wf[-1]
+        dissipated.append(wf[-1] / area)
+        assert balance_error(h) <= 1e-2
+    assert np.mean(dissipated) == pytest.approx(GF, rel=0.12)
+
+
+def test_direct_tension_strength_is_ft(run_case):
+    """A prism in uniaxial tension carries at most f_t (peak reaction over
+    the section) within 5 %; the energy balance closes within 1 %."""
+    peak = []
+    for seed in SEEDS:
+        text, area, gf = tension_specimen(cell=0.002, cells_across=round(W / 0.002), notch=0.0,
+                                          young=E, tensile_strength=FT, fracture_energy=GF,
+                                          seed=seed)
+        h = run_case(text)
+        peak.append(np.abs(h.observables["F"]).max() / W ** 2)
+        assert balance_error(h) <= 1e-2
+    assert np.mean(peak) == pytest.approx(FT, rel=0.05)
