@@ -33,7 +33,10 @@ class Mesh:
       bface_cell (B,); bface_side (B,) in 0..5 = xmin, xmax, ymin, ymax,
       zmin, zmax; bface_normal (B, 3) outward; bface_area, bface_centroid,
       bface_vertex_ptr, bface_vertex_xyz as for internal faces.
-    box (2, 3): [[xmin, ymin, zmin], [xmax, ymax, zmax]].
+    box (2, 3): [[xmin, ymin, zmin], [xmax, ymax, zmax]] (the bounds).
+    surface_names: the names of the boundary surfaces; bface_side indexes
+      them (a box: SIDES; a clipped solid, mesh/clip.py: its named surfaces,
+      bface_normal then the true outward normals of the facets).
 
     Index arrays are int64, coordinates float64.  The arrays are not locked
     (write flags stay on so that Numba sees ordinary arrays): treat them as
@@ -62,6 +65,7 @@ class Mesh:
     bface_vertex_ptr: np.ndarray
     bface_vertex_xyz: np.ndarray
     box: np.ndarray
+    surface_names: tuple = SIDES
 
     @property
     def n_cells(self) -> int:
@@ -102,7 +106,8 @@ def check_box(box):
     return box
 
 
-def assemble(box, xyz, f_cells, f_ptr, f_vid, f_normal, b_cell, b_side, b_ptr, b_vid, n_cells, ref=None):
+def assemble(box, xyz, f_cells, f_ptr, f_vid, f_normal, b_cell, b_side, b_ptr, b_vid, n_cells, ref=None,
+             *, b_normal=None, surface_names=SIDES):
     """Build a Mesh from polygons given as ids into unique points ``xyz``.
 
     Internal polygons: f_cells (F, 2) with a < b, counter-clockwise about
@@ -129,9 +134,12 @@ def assemble(box, xyz, f_cells, f_ptr, f_vid, f_normal, b_cell, b_side, b_ptr, b
     bo = np.lexsort((b_cell, b_side))
     b_ptr, b_vid = _gather(b_ptr, b_vid, bo)
     b_cell, b_side = b_cell[bo], b_side[bo]
-    axis = b_side // 2
-    b_normal = np.zeros((B, 3))
-    b_normal[np.arange(B), axis] = np.where(b_side % 2 == 0, -1.0, 1.0)
+    if b_normal is None:
+        axis = b_side // 2
+        b_normal = np.zeros((B, 3))
+        b_normal[np.arange(B), axis] = np.where(b_side % 2 == 0, -1.0, 1.0)
+    else:
+        b_normal = np.asarray(b_normal, dtype=np.float64)[bo]
 
     f_xyz = xyz[f_vid]
     b_xyz = xyz[b_vid]
@@ -177,5 +185,5 @@ def assemble(box, xyz, f_cells, f_ptr, f_vid, f_normal, b_cell, b_side, b_ptr, b
         face_centroid=f64(f_cen), face_vertex_ptr=i64(f_ptr), face_vertex_xyz=f64(f_xyz),
         bface_cell=i64(b_cell), bface_side=i64(b_side), bface_normal=f64(b_normal),
         bface_area=f64(b_area), bface_centroid=f64(b_cen), bface_vertex_ptr=i64(b_ptr),
-        bface_vertex_xyz=f64(b_xyz), box=f64(box),
+        bface_vertex_xyz=f64(b_xyz), box=f64(box), surface_names=tuple(surface_names),
     )
