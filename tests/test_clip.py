@@ -132,3 +132,34 @@ def test_no_slivers(solid_mesh):
     off at the notch and the curved surface are merged into a neighbour."""
     name, solid, mesh, cells, volume = solid_mesh
     assert mesh.cell_volume.min() >= 0.1 * volume / mesh.n_cells
+
+
+def test_blocks_clipped_to_a_notched_beam_and_a_cylinder():
+    """Blocks (voxels) clipped to a solid: the notch cuts blocks, the
+    cylinder's ends lie on block faces and its side cuts blocks; volumes and
+    surface areas exact (1e-9), each named surface's faces carry its normal,
+    no piece below 0.1 of a block."""
+    from rbsm_dyn.mesh import block_mesh
+    beam = SOLIDS["notched beam"][0]()
+    v, t, s = surface_of(beam)
+    # 4 mm blocks from −0.003: the notch x ∈ [0.098, 0.102] cuts them
+    cells = block_mesh([[-0.003, -0.003, -0.003], [0.205, 0.053, 0.053]], (52, 14, 14))
+    mesh = clip_to_solid(cells, v, t, s, ("side", "bottom", "top"))
+    assert mesh.cell_volume.sum() == pytest.approx(SOLIDS["notched beam"][2], rel=1e-9)
+    assert mesh.bface_area.sum() == pytest.approx(beam.surface_area(), rel=1e-9)
+    top = mesh.bface_side == 2
+    assert mesh.bface_area[top].sum() == pytest.approx(0.2 * 0.05, rel=1e-9)
+    # facing −z: the bottom without the notch's mouth, and the notch's end
+    bottom = mesh.bface_side == 1
+    assert mesh.bface_area[bottom].sum() == pytest.approx(0.2 * 0.05, rel=1e-9)
+    assert np.sum(bottom & (np.abs(mesh.bface_centroid[:, 2] - 0.01) < 1e-12)) > 0
+    np.testing.assert_allclose(mesh.bface_normal[top][:, 2], 1.0, atol=1e-12)
+    assert mesh.cell_volume.min() >= 0.1 * 0.004 ** 3
+
+    cyl = SOLIDS["cylinder"][0]()
+    v, t, s = surface_of(cyl)
+    cells = block_mesh([[-R, -R, 0], [R, R, L]], (10, 10, 10))
+    mesh = clip_to_solid(cells, v, t, s, ("side", "bottom", "top"))
+    assert mesh.cell_volume.sum() == pytest.approx(SOLIDS["cylinder"][2], rel=1e-9)
+    assert mesh.bface_area.sum() == pytest.approx(cyl.surface_area(), rel=1e-9)
+    assert mesh.cell_volume.min() >= 0.1 * (2 * R / 10) ** 2 * L / 10

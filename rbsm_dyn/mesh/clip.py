@@ -197,6 +197,19 @@ def clip_to_solid(mesh, vertices, triangles, tri_surface, surface_names, *, min_
     piece = piece_of_comp[comp]
     piece_cell = comp_cell[porder]
 
+    # a cell face on a plane of the solid (blocks: a block face in the
+    # plane of a notch's side) may come out of the boolean with the cell's
+    # face_id where it lies on the surface: such triangles are the facet's
+    scale = np.ptp(mesh.box, axis=0).max()
+    tn = np.empty((T, 3))
+    tn[internal] = mesh.face_normal[fid[internal] // 2] * \
+        np.where(fid[internal] % 2 == 0, 1.0, -1.0)[:, None]
+    tn[bnd] = mesh.bface_normal[fid[bnd] - 2 * F]
+    cand = np.nonzero(is_cell)[0]
+    on = _facet_holding(xyz[tri[cand]].mean(axis=1), tn[cand], vertices, triangles, facet,
+                        facet_normal, scale)
+    fid[cand[on >= 0]] = _SOLID + on[on >= 0]
+
     # regions: triangles of one piece with one face_id; boundary edges
     rkey = piece * (_SOLID + len(triangles)) + fid
     ukey, region = np.unique(rkey, return_inverse=True)
@@ -221,15 +234,16 @@ def clip_to_solid(mesh, vertices, triangles, tri_surface, surface_names, *, min_
     lfid = region_fid[loop_region]
     lpiece = region_piece[loop_region]
 
-    # normals: the tessellation's face normal (from a to b) or the facet's
+    # outward normals: the tessellation's face normal (from a to b: side 0)
+    # or the facet's
     is_int = lfid < 2 * F
     is_sol = lfid >= _SOLID
     if np.any(~is_int & ~is_sol):
-        raise ValueError("the tessellation's box must be larger than the solid's bounds")
+        raise ValueError("a side of the tessellation's box cuts the solid: the box must hold it")
     lnormal = np.empty((n_loops, 3))
-    f_of = lfid[is_int] // 2
-    side = lfid[is_int] % 2
-    lnormal[is_int] = mesh.face_normal[f_of] * np.where(side == 0, 1.0, -1.0)[:, None]
+    side = np.where(is_int, lfid % 2, -1)
+    lnormal[is_int] = mesh.face_normal[lfid[is_int] // 2] * \
+        np.where(side[is_int] == 0, 1.0, -1.0)[:, None]
     lnormal[is_sol] = facet_normal[lfid[is_sol] - _SOLID]
     from .spring_points import polygon_properties
     larea, lcen = polygon_properties(ptr, xyz[bf], lnormal)
@@ -237,16 +251,25 @@ def clip_to_solid(mesh, vertices, triangles, tri_surface, surface_names, *, min_
         raise ValueError("a clipped face has a hole (a part of the solid thinner than a cell "
                          "passes through it); make the cells smaller")
 
-    # internal faces: pair the side-0 loop with the side-1 loop of the same face
+    # internal faces: pair the side-0 loop with the side-1 loop of the same
+    # face (same face, same centroid)
     from scipy.spatial import cKDTree
-    i0 = np.nonzero(is_int)[0][side == 0]
-    i1 = np.nonzero(is_int)[0][side == 1]
-    scale = np.ptp(mesh.box, axis=0).max()
+    i0 = np.nonzero(side == 0)[0]
+    i1 = np.nonzero(side == 1)[0]
     pts0 = np.column_stack([lcen[i0], lfid[i0] // 2 * (10.0 * scale)])
     pts1 = np.column_stack([lcen[i1], lfid[i1] // 2 * (10.0 * scale)])
-    dist, j = cKDTree(pts0).query(pts1)
-    if len(i0) != len(i1) or np.any(dist > 1e-7 * scale) or len(np.unique(j)) != len(j):
-        raise ValueError("the two sides of a clipped face do not match")
+    mismatch = ("the two sides of a clipped face do not match: a cell face lies partly on "
+                "the solid's surface (an edge of the solid runs across a block face in its "
+                "plane); shift or resize the blocks so that the solid's faces do not lie on "
+                "block faces")
+    if len(i0) != len(i1):
+        raise ValueError(mismatch)
+    if len(i0):
+        dist, j = cKDTree(pts0).query(pts1)
+        if np.any(dist > 1e-7 * scale) or len(np.unique(j)) != len(j):
+            raise ValueError(mismatch)
+    else:
+        j = np.zeros(0, np.int64)
     fa = lpiece[i0[j]]
     fb = lpiece[i1]
     f_loop = i0[j]
@@ -307,6 +330,39 @@ def clip_to_solid(mesh, vertices, triangles, tri_surface, surface_names, *, min_
     return assemble(np.array([lo, hi]), xyz[used], np.column_stack([a_, b_]), f_ptr,
                     remap[f_vid], f_normal, body[b_piece], b_surf, b_ptr, remap[b_vid],
                     n_bodies, b_normal=lnormal[b_loop], surface_names=tuple(surface_names))
+
+
+def _facet_holding(points, normals, vertices, triangles, tri_facet, facet_normal, scale):
+    """The facet holding each point (a triangle's centroid, with its outward
+    normal), or −1: a solid triangle with the same outward normal (1e-8),
+    whose plane holds the point (1e-8 × scale) and which contains it
+    (barycentric coordinates ≥ −1e-9)."""
+    from scipy.spatial import cKDTree
+    v = np.asarray(vertices, float)
+    t = np.asarray(triangles, np.int64)
+    n = facet_normal[tri_facet]
+    d = np.einsum("ij,ij->i", n, v[t[:, 0]]) / scale
+    pd = np.einsum("ij,ij->i", normals, points) / scale
+    pairs = cKDTree(np.column_stack([normals, pd])).sparse_distance_matrix(
+        cKDTree(np.column_stack([n, d])), 1e-8, output_type="ndarray")
+    q = pairs["i"].astype(np.int64)
+    tri = pairs["j"].astype(np.int64)
+    a, b, c = v[t[tri, 0]], v[t[tri, 1]], v[t[tri, 2]]
+    p = points[q]
+    # barycentric coordinates in the triangle's plane
+    e1, e2, ep = b - a, c - a, p - a
+    d11 = np.einsum("ij,ij->i", e1, e1)
+    d12 = np.einsum("ij,ij->i", e1, e2)
+    d22 = np.einsum("ij,ij->i", e2, e2)
+    dp1 = np.einsum("ij,ij->i", ep, e1)
+    dp2 = np.einsum("ij,ij->i", ep, e2)
+    den = d11 * d22 - d12 * d12
+    u = (d22 * dp1 - d12 * dp2) / den
+    w = (d11 * dp2 - d12 * dp1) / den
+    inside = (u >= -1e-9) & (w >= -1e-9) & (u + w <= 1 + 1e-9)
+    out = np.full(len(points), -1, np.int64)
+    out[q[inside]] = tri_facet[tri[inside]]
+    return out
 
 
 def _roots(target):
