@@ -317,7 +317,7 @@ class Probe(_Node):
 
 
 FieldName = Literal["position", "orientation", "velocity", "angular_velocity",
-                    "spring_state", "spring_force"]
+                    "spring_state", "spring_force", "cell_stress"]
 
 
 class Output(_Node):

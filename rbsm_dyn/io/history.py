@@ -647,6 +647,12 @@ class History:
         return self.series.get("springs/force")
 
     @property
+    def cell_stress(self):
+        """(T, N, 3, 3) [Pa] cell stress tensors (symmetric Love–Weber
+        averages, solvers/output.py), or None when not written."""
+        return self._body("stress")
+
+    @property
     def n_bodies(self) -> int | None:
         """Number of bodies N (from the static masses or the positions)."""
         m = self.static.get(f"{self.BODIES}/mass")

@@ -14,6 +14,9 @@ Balance: kinetic + strain + damping + plastic + fracture
          = kinetic(0) + strain(0) + external.
 Cracks: n_broken (springs broken, open or in contact) and crack_area [m²]
 (their area); spring states per frame in springs/state when asked.
+Cell stress (field cell_stress, particles/bodies/stress (N, 3, 3) [Pa]):
+the symmetrised Love–Weber average of each cell's spring forces
+(physics/cell_stress.py), computed only in the frames of a run that asks.
 """
 import json
 
@@ -25,6 +28,7 @@ from ..physics.rotation import quat_mul_np
 from ..physics.inelastic import inelastic_strain_energy
 from ..physics.laws import BROKEN
 from ..physics.poisson import poisson_energy
+from ..physics.cell_stress import cell_stress
 from ..physics.springs import elastic_energy, spring_local_gap
 
 FIELD_SERIES = {
@@ -34,6 +38,9 @@ FIELD_SERIES = {
     "angular_velocity": ("particles/bodies/angular_velocity", (3,), "f8", "s-1"),
     "spring_state": ("springs/state", None, "i1", "1"),
     "spring_force": ("springs/force", None, "f8", "N"),
+    # symmetric; stored whole (not as 6 Voigt numbers) so that no component
+    # order has to be guessed: eigvalsh and einsum read it as it is
+    "cell_stress": ("particles/bodies/stress", (3, 3), "f8", "Pa"),
 }
 
 
@@ -228,6 +235,8 @@ class Recorder:
                                  else np.zeros(m.n_springs, dtype=np.int8))
             elif name == "spring_force":
                 values[path_] = state.spring_force
+            elif name == "cell_stress":
+                values[path_] = cell_stress(m, state)
         obs = self.spring_observables(state)
         obs.update(observables)
         obs.update(self.probe_values(state, vel, omega, time, amp_load))
