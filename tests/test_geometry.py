@@ -476,6 +476,19 @@ def test_open_and_non_manifold_files_are_refused(tmp_path):
         build_solid({"file": str(tmp_path / "nothere.stl")}, chord=CHORD)
 
 
+def test_files_with_flipped_triangles_are_oriented_outward(tmp_path):
+    import trimesh
+    box = build_solid({"box": [[0, 0, 0], [0.5, 0.25, 0.125]]}, chord=CHORD)
+    inward = box.triangles[:, ::-1]
+    one_flipped = box.triangles.copy()
+    one_flipped[3] = one_flipped[3, ::-1]
+    for name, tris in [("inward.off", inward), ("one_flipped.off", one_flipped)]:
+        trimesh.Trimesh(box.vertices, tris, process=False).export(tmp_path / name)
+        s = build_solid({"file": str(tmp_path / name)}, chord=CHORD)
+        assert s.volume == 0.5 * 0.25 * 0.125
+        assert s.contains([[0.25, 0.125, 0.0625]]).all()
+
+
 def test_relative_file_paths_read_from_base_dir(tmp_path):
     box = build_solid({"box": [[0, 0, 0], [1, 2, 4]]}, chord=CHORD)
     write(box, tmp_path / "b.stl")

@@ -130,14 +130,15 @@ def _sphere_deviation(n, radius):
 def sphere_segments(radius: float, chord: float) -> int:
     """Smallest even n >= 8 whose latitude-longitude sphere (n meridian
     segments, n/2 bands) has every facet's cap height <= chord."""
-    # the cap height is at least the sagitta of a meridian segment, so start
-    # from the circle rule and step up
-    n = circle_segments(radius, chord)
+    # near the equator a band quad spans about 2 pi r/n both ways, so its cap
+    # height is about twice the sagitta of one segment: start from the circle
+    # rule at chord/2 and step to the smallest even n
+    n = circle_segments(radius, 0.5 * chord)
     n += n % 2
-    while _sphere_deviation(n, radius) > chord:
+    while n > 8 and _sphere_deviation(n - 2, radius) <= chord:
+        n -= 2
+    while _sphere_deviation(n, radius) > chord and n * n <= MAX_TRIANGLES:
         n += 2
-        if n * n > 4 * MAX_TRIANGLES:
-            break
     return n
 
 
