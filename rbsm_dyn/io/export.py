@@ -12,7 +12,11 @@ writes, in DIR (default ``RUN_vtk/`` beside RUN.h5):
   velocity; absent when the history has no velocities), ``body_id``.  Cell
   data ``body_id``, ``material``, ``displacement`` and ``velocity`` of the
   centroid, ``rotation`` [rad] (rotation vector, when orientations are in
-  the history).
+  the history); with the ``cell_stress`` field (docs/history.md) the cell
+  stress [Pa]: ``stress`` (9 components, a tensor to ParaView), ``sxx``,
+  ``syy``, ``szz``, ``sxy``, ``syz``, ``sxz``, ``von_mises`` and the
+  principal stresses ``principal_max`` ≥ ``principal_mid`` ≥
+  ``principal_min`` (tension positive; :func:`stress_measures`).
 * ``faces.pvd`` + ``faces/frame_NNNNNN.vtp``: the faces that are not
   elastic (a spring on them yielded, broke or is in contact) as polygons,
   drawn between their two cells (a support face on its cell).  Cell data
@@ -39,7 +43,12 @@ import numpy as np
 from .geometry import CellGeometry, frame_state, rotation_vectors
 from .history import History, open_history
 
-__all__ = ["export", "cells_mesh", "faces_mesh", "write_pvd"]
+__all__ = ["export", "cells_mesh", "faces_mesh", "write_pvd", "stress_measures",
+           "STRESS_MEASURES"]
+
+#: scalar measures of the cell stress tensor (cell data, render --color)
+STRESS_MEASURES = ("sxx", "syy", "szz", "sxy", "syz", "sxz", "von_mises",
+                   "principal_max", "principal_mid", "principal_min")
 
 #: frames read from the file at a time (memory bound for long histories)
 BLOCK_FRAMES = 32
@@ -48,6 +57,22 @@ BLOCK_FRAMES = 32
 def _pv():
     import pyvista as pv
     return pv
+
+
+def stress_measures(sigma) -> dict:
+    """Scalar measures of stress tensors sigma (..., 3, 3) [Pa], symmetric:
+    the six components, the von Mises stress √(3/2 s:s) (s the deviator)
+    and the principal stresses (eigenvalues, largest first): a dict of
+    arrays (...) named as STRESS_MEASURES."""
+    sig = np.asarray(sigma, dtype=float)
+    out = {"sxx": sig[..., 0, 0], "syy": sig[..., 1, 1], "szz": sig[..., 2, 2],
+           "sxy": sig[..., 0, 1], "syz": sig[..., 1, 2], "sxz": sig[..., 0, 2]}
+    dev = sig - np.trace(sig, axis1=-2, axis2=-1)[..., None, None] / 3.0 * np.eye(3)
+    out["von_mises"] = np.sqrt(1.5 * np.einsum("...ij,...ij->...", dev, dev))
+    p = np.linalg.eigvalsh(sig)                       # ascending
+    out["principal_max"], out["principal_mid"], out["principal_min"] = \
+        p[..., 2], p[..., 1], p[..., 0]
+    return out
 
 
 def cells_mesh(h: History, k: int, geom: CellGeometry | None = None, scale: float = 1.0,
@@ -88,6 +113,11 @@ def cells_mesh(h: History, k: int, geom: CellGeometry | None = None, scale: floa
         grid.cell_data["velocity"] = v
     if q is not None and geom.q0 is not None:
         grid.cell_data["rotation"] = rotation_vectors(q, geom.q0)
+    sig = h.cell_stress[k] if h.cell_stress is not None else None
+    if sig is not None:
+        grid.cell_data["stress"] = sig.reshape(-1, 9)
+        for name, val in stress_measures(sig).items():
+            grid.cell_data[name] = val
     _field_data(grid, h, k)
     return grid
 

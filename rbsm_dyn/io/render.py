@@ -1,11 +1,16 @@
 """Pictures of a history: the deformed cells with their cracks, and the
 probes and energies over time.
 
-    python -m rbsm_dyn render RUN.h5 [--frame K] [--out PNG] [--scale F]
+    python -m rbsm_dyn render RUN.h5 [--frame K] [--out PNG] [--scale F] [--color C]
     python -m rbsm_dyn plot RUN.h5 [--out PNG]
 
 ``render`` draws frame K (default the last) off-screen with pyvista: the
-cells coloured by the magnitude of their displacement, displacements
+cells coloured by the magnitude of their displacement (``--color
+displacement``, the default) or by their stress, when the history has the
+``cell_stress`` field: a component (``sxx``, ``syy``, ``szz``, ``sxy``,
+``syz``, ``sxz``; blue compression, red tension, a range symmetric about
+0), ``von_mises``, ``principal_max`` or ``principal_min`` (io/export.py
+stress_measures); displacements
 magnified by F (default: chosen so that the largest displacement shows as
 about 4 % of the domain size, rounded to 1, 2 or 5 × 10^n, never below 1);
 the factor is printed and written in the picture.  Faces on which a spring
@@ -36,12 +41,23 @@ from pathlib import Path
 
 import numpy as np
 
-from .export import cells_mesh, faces_mesh
+from .export import STRESS_MEASURES, cells_mesh, faces_mesh
 from .history import open_history
 
-__all__ = ["render", "plot", "auto_scale", "RendererUnavailable", "check_renderer"]
+__all__ = ["render", "plot", "auto_scale", "RendererUnavailable", "check_renderer", "COLORS"]
 
 STATE_COLORS = {1: "orange", 2: "red", 3: "red"}
+
+#: what the cells can be coloured by (--color): the displacement magnitude
+#: or a measure of the cell stress (io/export.py STRESS_MEASURES)
+COLORS = ("displacement",) + STRESS_MEASURES
+# (ASCII: VTK's fonts may lack Greek letters)
+_COLOR_LABELS = {"sxx": "stress xx", "syy": "stress yy", "szz": "stress zz",
+                 "sxy": "stress xy", "syz": "stress yz", "sxz": "stress xz",
+                 "von_mises": "von Mises stress",
+                 "principal_max": "largest principal stress",
+                 "principal_mid": "middle principal stress",
+                 "principal_min": "smallest principal stress"}
 
 
 class RendererUnavailable(RuntimeError):
@@ -105,10 +121,15 @@ def _view(box_min, box_max):
 
 
 def render(path, *, frame: int = -1, out=None, scale: float | None = None,
-           window_size=(1600, 800), show_edges: bool = True) -> dict:
-    """Draw frame ``frame`` of history ``path`` to a PNG (module docstring).
+           window_size=(1600, 800), show_edges: bool = True,
+           color: str = "displacement") -> dict:
+    """Draw frame ``frame`` of history ``path`` to a PNG (module docstring),
+    the cells coloured by ``color`` (one of COLORS).
     Returns ``{"out", "frame", "time", "scale", "max_displacement",
-    "n_broken_faces", "n_yielded_faces", "renderer"}``."""
+    "n_broken_faces", "n_yielded_faces", "renderer", "color", "color_range"}``
+    (color_range: the (min, max) of the colour bar)."""
+    if color not in COLORS:
+        raise ValueError(f"--color must be one of {', '.join(COLORS)} (got {color!r})")
     renderer = check_renderer()
     import pyvista as pv
     pv.OFF_SCREEN = True
@@ -128,6 +149,25 @@ def render(path, *, frame: int = -1, out=None, scale: float | None = None,
         scale = auto_scale(max_u, size)
     cells = cells_mesh(h, 0, geom, scale=scale) if scale != 1.0 else true_cells
     cells.point_data["displacement [m]"] = umag
+    if color == "displacement":
+        scalars, label, cmap = "displacement [m]", "displacement [m]", "viridis"
+        clim = (float(umag.min(initial=0.0)), max_u)
+    else:
+        if h.cell_stress is None:
+            raise KeyError(f"{path}: no cell stress in the history (add cell_stress to "
+                           "output.fields) for --color " + color)
+        label = f"{_COLOR_LABELS[color]} [Pa]"
+        scalars = label
+        val = np.asarray(cells.cell_data[color])
+        cells.cell_data[label] = val
+        top = float(np.abs(val).max(initial=0.0))
+        if color in ("von_mises",):
+            cmap, clim = "viridis", (0.0, top)
+        else:
+            # signed: blue compression, red tension, zero in the middle
+            cmap, clim = "coolwarm", (-top, top)
+        if clim[1] <= clim[0]:
+            clim = (clim[0] - 1.0, clim[1] + 1.0)
     faces = faces_mesh(h, 0, geom, scale=scale, min_state=1)
     state = np.asarray(faces.cell_data["state"]) if faces.n_cells else np.zeros(0)
 
@@ -135,27 +175,29 @@ def render(path, *, frame: int = -1, out=None, scale: float | None = None,
     name = case.get("name") or path.stem
     pl = pv.Plotter(off_screen=True, window_size=list(window_size))
     pl.set_background("white")
-    pl.add_mesh(cells, scalars="displacement [m]", cmap="viridis", show_edges=show_edges,
+    pl.add_mesh(cells, scalars=scalars, cmap=cmap, clim=clim, show_edges=show_edges,
+                preference="point" if color == "displacement" else "cell",
                 edge_color="#303030", line_width=0.5, lighting=True,
-                scalar_bar_args={"title": "displacement [m]", "color": "black", "vertical": True,
+                scalar_bar_args={"title": label, "color": "black", "vertical": True,
                                  "position_x": 0.89, "position_y": 0.1,
                                  "height": 0.7, "width": 0.05, "fmt": "%.2e"})
     n_broken = int(np.count_nonzero(state >= 2))
     n_yield = int(np.count_nonzero(state == 1))
-    for st_sel, color in (((state == 1), "orange"), ((state >= 2), "red")):
+    for st_sel, face_color in (((state == 1), "orange"), ((state >= 2), "red")):
         ids = np.nonzero(st_sel)[0]
         if len(ids) == 0:
             continue
         sub = faces.extract_cells(ids)
-        pl.add_mesh(sub, color=color, opacity=1.0, lighting=False)
-        pl.add_mesh(sub.extract_all_edges(), color=color, line_width=3,
+        pl.add_mesh(sub, color=face_color, opacity=1.0, lighting=False)
+        pl.add_mesh(sub.extract_all_edges(), color=face_color, line_width=3,
                     render_lines_as_tubes=False)
     t = float(h.time[0])
     mode = case.get("solver", {}).get("mode", "dynamic")
     tlabel = {"static": f"load factor {t:.4g}", "modal": f"mode {int(h.step[0])}",
               "linear": "linear solution"}.get(mode, f"t = {t:.4g} s")
     text = (f"{name}: frame {fi}, {tlabel}\n"
-            f"displacement magnified x {_fmt_scale(scale)} (largest: {max_u:.3g} m)\n"
+            f"displacement magnified x {_fmt_scale(scale)} (largest: {max_u:.3g} m)"
+            + (f"; colour: {label}" if color != "displacement" else "") + "\n"
             f"red: broken faces ({n_broken}), orange: yielded faces ({n_yield})")
     pl.add_text(text, position="upper_left", font_size=11, color="black")
     direction, up = _view(box_min, box_max)
@@ -182,7 +224,8 @@ def render(path, *, frame: int = -1, out=None, scale: float | None = None,
     pl.close()
     return {"out": str(out), "frame": fi, "time": t, "scale": float(scale),
             "max_displacement": max_u, "n_broken_faces": n_broken,
-            "n_yielded_faces": n_yield, "renderer": renderer}
+            "n_yielded_faces": n_yield, "renderer": renderer, "color": color,
+            "color_range": (float(clim[0]), float(clim[1]))}
 
 
 # ------------------------------------------------------------------ plot
@@ -254,6 +297,10 @@ def add_arguments(p) -> None:
                    help="displacement magnification (default: automatic, printed)")
     p.add_argument("--size", type=int, nargs=2, default=(1600, 800), metavar=("W", "H"),
                    help="picture size in pixels (default 1600 800)")
+    p.add_argument("--color", "--colour", choices=COLORS, default="displacement",
+                   help="colour the cells by the displacement magnitude (default) or by "
+                        "their stress (needs the cell_stress field): a component sxx ... sxz, "
+                        "von_mises, principal_max, principal_mid, principal_min")
     p.add_argument("--quiet", action="store_true", help="print nothing on success")
 
 
@@ -268,7 +315,7 @@ def main(args) -> int:
         return 2
     try:
         res = render(args.history, frame=args.frame, out=args.out, scale=args.scale,
-                     window_size=tuple(args.size))
+                     window_size=tuple(args.size), color=getattr(args, "color", "displacement"))
     except RendererUnavailable as exc:
         print(f"rbsm_dyn: render: {exc}", file=sys.stderr)
         return 1
