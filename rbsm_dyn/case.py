@@ -39,7 +39,7 @@ __all__ = [
     "CaseError", "load_case", "load_case_text", "Case", "Domain", "Mesh",
     "Material", "Yield", "Rupture", "Group", "FaceSupport", "GroupFix",
     "GroupVelocity", "GroupDisplacement", "InitialVelocity", "GroupLoad",
-    "Gravity", "Cut", "Damping", "Solver", "Probe", "Output", "DIMENSIONS",
+    "Gravity", "Cut", "Damping", "Solver", "Probe", "RelativeProbe", "Output", "DIMENSIONS",
     "MAX_CELLS", "NUMBER_LIMIT",
 ]
 
@@ -310,10 +310,43 @@ MODAL_KEYS = ("modes",)
 
 
 class Probe(_Node):
+    """``{group, quantity, component, reduce}``: one number from a group's bodies."""
     group: str
-    quantity: Literal["displacement", "rotation", "velocity", "force", "reaction"]
+    # (relative_displacement is read as a RelativeProbe: listed here so that
+    # a bad quantity's message names every quantity)
+    quantity: Literal["displacement", "rotation", "velocity", "force", "reaction",
+                      "relative_displacement"]
     component: Literal["x", "y", "z", "magnitude"]
     reduce: Literal["mean", "sum", "max", "min"]
+
+
+class RelativeProbe(_Node):
+    """``{quantity: relative_displacement, groups: [a, b] | points: [p_a, p_b],
+    component | direction}``: displacement of b minus that of a (the mean of
+    each group's bodies, or of the material point p of the body whose cell
+    holds it), as a component, the magnitude, or along ``direction``."""
+    quantity: Literal["relative_displacement"]
+    groups: Optional[Annotated[list[str], _length(2, "[group_a, group_b]")]] = None
+    points: Optional[Annotated[list[Vec3], _length(2, "[[x, y, z], [x, y, z]]")]] = None
+    component: Optional[Literal["x", "y", "z", "magnitude"]] = None
+    direction: Optional[Vec3] = None
+
+
+def _probe_form(value: Any) -> str:
+    """Discriminator of a probe: by its quantity."""
+    if isinstance(value, BaseModel):
+        return _RELATIVE_TAG if isinstance(value, RelativeProbe) else _PROBE_TAG
+    if isinstance(value, dict) and value.get("quantity") == "relative_displacement":
+        return _RELATIVE_TAG
+    return _PROBE_TAG
+
+
+# tags of the two probe forms (never shown: _schema_errors drops them from
+# key paths; characters no probe name in a sane case has)
+_PROBE_TAG, _RELATIVE_TAG = "<probe>", "<relative probe>"
+ProbeItem = Annotated[
+    Union[Annotated[Probe, Tag(_PROBE_TAG)], Annotated[RelativeProbe, Tag(_RELATIVE_TAG)]],
+    Discriminator(_probe_form)]
 
 
 FieldName = Literal["position", "orientation", "velocity", "angular_velocity",
@@ -326,7 +359,7 @@ class Output(_Node):
     checkpoint_interval: Optional[float] = Field(default=None, gt=0)  # s; solvers/checkpoint.py
     flush_interval: float = Field(default=1.0, ge=0, le=3600)  # s of wall time; io/history.py
     fields: list[FieldName] = ["position", "orientation"]
-    probes: dict[str, Probe] = {}
+    probes: dict[str, ProbeItem] = {}
 
 
 def _form_of(forms: dict[str, str]):
@@ -365,7 +398,7 @@ LoadItem = Annotated[
                   custom_error_type="form",
                   custom_error_message=f"expected one of {_LOAD_FORMS}")]
 _TAGS = {"FaceSupport", "GroupFix", "GroupVelocity", "GroupDisplacement",
-         "Gravity", "GroupLoad"}
+         "Gravity", "GroupLoad", _PROBE_TAG, _RELATIVE_TAG}
 
 
 class Case(_Node):
@@ -452,6 +485,7 @@ DIMENSIONS: dict[tuple[type, str], str] = {
     (Damping, "alpha"): "1/time",
     (Solver, "end_time"): "time",
     (Solver, "dt"): "time",
+    (RelativeProbe, "points"): "length",
     (Output, "interval"): "time",
     (Output, "checkpoint_interval"): "time",
 }
@@ -956,7 +990,42 @@ def _check(case: Case) -> None:
     if out.file is not None and not out.file.isprintable():
         raise err(("output", "file"), f"must not contain control characters (got {out.file!r})")
     for name, probe in out.probes.items():
-        check_group(probe.group, ("output", "probes", name, "group"))
+        path = ("output", "probes", name)
+        if isinstance(probe, Probe):
+            check_group(probe.group, path + ("group",))
+            continue
+        # relative_displacement: two groups or two points, a component or a direction
+        if probe.groups is None and probe.points is None:
+            raise err(path, "required key missing: groups or points "
+                            "(quantity relative_displacement)")
+        if probe.groups is not None and probe.points is not None:
+            raise err(path + ("points",), "give either groups or points, not both")
+        if probe.component is None and probe.direction is None:
+            raise err(path, "required key missing: component or direction "
+                            "(quantity relative_displacement)")
+        if probe.component is not None and probe.direction is not None:
+            raise err(path + ("direction",), "give either component or direction, not both")
+        if probe.direction is not None and not any(probe.direction):
+            raise err(path + ("direction",), "must not be the zero vector")
+        if probe.groups is not None:
+            for k, g in enumerate(probe.groups):
+                check_group(g, path + ("groups", k))
+            if probe.groups[0] == probe.groups[1]:
+                raise err(path + ("groups", 1), f"the same group as groups[0] "
+                          f"({probe.groups[0]!r}: the relative displacement would be 0)")
+        else:
+            # (x0 .. z1: the domain's bounds, above; the body holding a point
+            # is found when the run starts, solvers/output.py point_body)
+            lo, hi = (x0, y0, z0), (x1, y1, z1)
+            for k, pt in enumerate(probe.points):
+                if not all(a <= c <= b for c, a, b in zip(pt, lo, hi)):
+                    raise err(path + ("points", k), "lies outside the domain "
+                              f"[{', '.join(_show(c) for c in lo)}] .. "
+                              f"[{', '.join(_show(c) for c in hi)}] "
+                              f"(got [{', '.join(_show(c) for c in pt)}])")
+            if probe.points[0] == probe.points[1]:
+                raise err(path + ("points", 1), "the same point as points[0] "
+                          "(the relative displacement would be 0)")
 
 
 # -------------------------------------------------------------- public API ---

@@ -17,6 +17,8 @@ Cracks: n_broken (springs broken, open or in contact) and crack_area [m²]
 Cell stress (field cell_stress, particles/bodies/stress (N, 3, 3) [Pa]):
 the symmetrised Love–Weber average of each cell's spring forces
 (physics/cell_stress.py), computed only in the frames of a run that asks.
+Probes: a reduction over a group's bodies, or (relative_displacement) the
+displacement of group or point b minus that of a (probe_plan).
 """
 import json
 
@@ -24,7 +26,7 @@ import numpy as np
 
 from .. import __version__
 from ..io.history import HistoryWriter
-from ..physics.rotation import quat_mul_np
+from ..physics.rotation import quat_matrix_np, quat_mul_np
 from ..physics.inelastic import inelastic_strain_energy
 from ..physics.laws import BROKEN
 from ..physics.poisson import poisson_energy
@@ -53,7 +55,7 @@ def frame_buffer(case):
     return dict(frames=256 if sec > 0 else 1, seconds=sec, nbytes=64 << 20)
 
 PROBE_UNITS = {"displacement": "m", "rotation": "rad", "velocity": "m s-1",
-               "force": "N", "reaction": "N"}
+               "force": "N", "reaction": "N", "relative_displacement": "m"}
 
 
 def versions():
@@ -77,6 +79,81 @@ def rotation_vectors(model, body_quat):
     return dq[:, 1:] * fac[:, None]
 
 
+def point_body(mesh, point):
+    """The body whose cell holds a point [m] (on a face, edge or corner
+    shared by cells, the one whose centroid is nearest).  A cell that
+    holds it is found among the cells whose bounding box does, by the planes
+    of their polygons (convex cells); when none of those does (a point on
+    no convex cell: round-off, a non-convex cell), the nearest centroid
+    among them; None when no cell's box holds the point."""
+    p = np.asarray(point, dtype=float)
+    V = mesh.vertices
+    cvp = np.asarray(mesh.cell_vertex_ptr, dtype=np.int64)
+    lo = np.minimum.reduceat(V, cvp[:-1], axis=0)
+    hi = np.maximum.reduceat(V, cvp[:-1], axis=0)
+    tol = 1e-9 * float(np.max(V.max(axis=0) - V.min(axis=0)))
+    cand = np.nonzero(np.all((lo - tol <= p) & (p <= hi + tol), axis=1))[0]
+    if len(cand) == 0:
+        return None
+    centroid = mesh.cell_centroid
+    # the polygons of the candidate cells, in cell order
+    cp = np.asarray(mesh.cell_poly_ptr, dtype=np.int64)
+    npoly = cp[cand + 1] - cp[cand]
+    first = np.cumsum(npoly) - npoly
+    polys = np.arange(npoly.sum()) - np.repeat(first, npoly) + np.repeat(cp[cand], npoly)
+    pp = np.asarray(mesh.poly_ptr, dtype=np.int64)
+    nv = pp[polys + 1] - pp[polys]
+    vfirst = np.cumsum(nv) - nv
+    k = np.arange(nv.sum()) - np.repeat(vfirst, nv)            # position in its polygon
+    start = np.repeat(pp[polys], nv)
+    v = V[mesh.poly_vertex[start + k]]
+    w = V[mesh.poly_vertex[start + (k + 1) % np.repeat(nv, nv)]]
+    # Newell's normal (outward: counter-clockwise seen from outside) and the
+    # polygon's vertex mean: the plane; signed distance of p from it
+    normal = np.add.reduceat(np.cross(v, w), vfirst, axis=0)
+    mid = np.add.reduceat(v, vfirst, axis=0) / nv[:, None]
+    dist = np.einsum("ki,ki->k", p - mid, normal) / np.linalg.norm(normal, axis=1)
+    inside = np.maximum.reduceat(dist, first) <= tol
+    pool = cand[inside] if inside.any() else cand
+    return int(pool[np.argmin(np.linalg.norm(centroid[pool] - p, axis=1))])
+
+
+def probe_plan(model, probes, case=None):
+    """How each probe is evaluated: name -> tuple (Recorder.probe_values).
+
+    relative_displacement of groups: the mean centroid displacement of
+    group b minus group a; of points: the displacement of the material
+    point p_b of its body minus that of p_a (point_body; the body's rotation
+    moves the point: u = x + R_Δ (p − x0) − p)."""
+    plan = {}
+    R0 = quat_matrix_np(model.body_quat0[:-1])
+    for name, p in probes.items():
+        if p.quantity != "relative_displacement":
+            plan[name] = ("group", model.groups[p.group])
+            continue
+        if p.direction is not None:
+            d = np.asarray(p.direction, dtype=float)
+            proj = d / np.linalg.norm(d)
+        else:
+            proj = p.component
+        if p.groups is not None:
+            plan[name] = ("groups", model.groups[p.groups[0]], model.groups[p.groups[1]], proj)
+            continue
+        ends = []
+        for k, pt in enumerate(p.points):
+            found = point_body(model.mesh, pt)
+            if found is None:
+                where = ("output", "probes", name, "points", k)
+                msg = "lies in no cell of the model"
+                raise case.error(where, msg) if case is not None else ValueError(msg)
+            i = found
+            pt = np.asarray(pt, dtype=float)
+            # the arm from the centroid in the body's principal frame (R(q) moves it)
+            ends.append((i, R0[i].T @ (pt - model.body_pos0[i]), pt))
+        plan[name] = ("points", ends[0], ends[1], proj)
+    return plan
+
+
 class Recorder:
     """Opens the history, writes the static part, appends frames."""
 
@@ -86,6 +163,7 @@ class Recorder:
         out = case.output
         self.fields = list(out.fields)
         self.probes = dict(out.probes or {})
+        self.plan = probe_plan(model, self.probes, case)
         self.writer = w = HistoryWriter(
             path, creator="rbsm_dyn", creator_version=__version__,
             parameters={"case_yaml": case.source_text,
@@ -154,6 +232,7 @@ class Recorder:
         self.model = model
         self.fields = list(case.output.fields)
         self.probes = dict(case.output.probes or {})
+        self.plan = probe_plan(model, self.probes, case)
         self.observables = {"kinetic": "J", "strain": "J", "external_work": "J",
                             "damping": "J", "plastic": "J", "fracture": "J",
                             "n_broken": "1", "crack_area": "m2"}
@@ -198,7 +277,11 @@ class Recorder:
         m = self.model
         out = {}
         for name, p in self.probes.items():
-            ids = m.groups[p.group]
+            plan = self.plan[name]
+            if plan[0] != "group":
+                out[name] = self.relative_displacement(state, plan)
+                continue
+            ids = plan[1]
             if p.quantity == "displacement":
                 v = state.body_pos[ids] - m.body_pos0[ids]
             elif p.quantity == "rotation":
@@ -212,6 +295,22 @@ class Recorder:
             comp = v[:, "xyz".index(p.component)] if p.component in "xyz" else np.linalg.norm(v, axis=1)
             out[name] = float(getattr(np, p.reduce)(comp))
         return out
+
+    def relative_displacement(self, state, plan):
+        """Displacement of end b minus end a (probe_plan), projected."""
+        m = self.model
+        kind, a, b, proj = plan
+        if kind == "groups":
+            du = (np.mean(state.body_pos[b] - m.body_pos0[b], axis=0)
+                  - np.mean(state.body_pos[a] - m.body_pos0[a], axis=0))
+        else:
+            def u(end):
+                i, arm, p = end
+                return state.body_pos[i] + state.body_rot[i] @ arm - p
+            du = u(b) - u(a)
+        if isinstance(proj, str):
+            return float(np.linalg.norm(du) if proj == "magnitude" else du["xyz".index(proj)])
+        return float(du @ proj)
 
     def append(self, state, step, time, vel, angmom, observables, amp_load):
         """vel, angmom: synchronized (N, 3) arrays at this time."""
