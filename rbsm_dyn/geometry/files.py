@@ -127,7 +127,9 @@ def _read_cad(p, path, chord):
         gmsh.model.mesh.generate(2)
         tags, coords, _ = gmsh.model.mesh.getNodes()
         v = np.asarray(coords, dtype=np.float64).reshape(-1, 3)
-        index = {int(t): i for i, t in enumerate(tags)}
+        tags = np.asarray(tags, dtype=np.int64)
+        index = np.full(int(tags.max()) + 1, -1, np.int64)      # node tag -> row of v
+        index[tags] = np.arange(len(tags))
         physical = {}
         for dim, ptag in gmsh.model.getPhysicalGroups(2):
             name = gmsh.model.getPhysicalName(dim, ptag) or f"physical{ptag}"
@@ -140,7 +142,7 @@ def _read_cad(p, path, chord):
             for et, nodes in zip(etypes, enodes):
                 if et != 2:                   # 3-node triangles only
                     continue
-                t = np.array([index[int(x)] for x in nodes], np.int64).reshape(-1, 3)
+                t = index[np.asarray(nodes, dtype=np.int64)].reshape(-1, 3)
                 tris.append(t)
                 region.append(np.full(len(t), names.index(physical.get(int(ent), "surface"))))
     except GeometryError:
