@@ -512,8 +512,10 @@ def build_model(case, mesh=None):
             mext[ids] += w[:, None] * np.asarray(item.moment, float)
 
     lam_aux = np.array([m["lambda_aux"] for m in materials])[body_material]
+    # the strain fit links cells of one material across intact faces (physics/poisson.py)
     poisson = (build_poisson(mesh.face_cells, mesh.face_area, cen, mesh.cell_volume, lam_aux,
-                             rot0, cat["face"]) if np.any(lam_aux > 0) else empty_poisson(n))
+                             rot0, cat["face"], 0.5 * alpha * e0, body_material, cat["state0"])
+               if np.any(lam_aux > 0) else empty_poisson(n))
     return Model(
         poisson=poisson,
         n_bodies=n, body_mass=mass, body_inertia=inertia, body_volume=mesh.cell_volume.copy(),

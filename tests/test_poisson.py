@@ -27,7 +27,7 @@ from rbsm_dyn.calibration import NU_MAX, NU_TABLE_MAX, stiffness_rule
 from rbsm_dyn.case import load_case_text
 from rbsm_dyn.model import build_mesh, build_model, new_state
 from rbsm_dyn.physics.integrate import refresh_all_rotations
-from rbsm_dyn.physics.poisson import (cell_dilatation, poisson_args, poisson_energy,
+from rbsm_dyn.physics.poisson import (RCOND, cell_dilatation, poisson_args, poisson_energy,
                                       poisson_pass, poisson_stiffness)
 from rbsm_dyn.physics.rotation import quat_mul_np
 from rbsm_dyn.stiffness import stiffness_matrix, uniaxial_moduli
@@ -76,6 +76,18 @@ def posed(model, u, theta):
     return pos, rot
 
 
+def slot_projectors(model):
+    """P_c = Σ_j g_j Δx_jᵀ (N, 3, 3) from the Poisson arrays: the fit's
+    response to an affine field u = ε x is θ_c = tr(P_c ε)."""
+    a = model.poisson
+    n = model.n_bodies
+    c = np.repeat(np.arange(n), np.diff(a.cell_slot_ptr))
+    dx = model.body_pos0[a.slot_cell] - model.body_pos0[c]
+    P = np.zeros((n, 3, 3))
+    np.add.at(P, c, a.slot_gw[:, :, None] * dx[:, None, :])
+    return P
+
+
 def aux_wrench(model, pos, rot):
     n = model.n_bodies
     st = new_state(model)
@@ -103,8 +115,23 @@ def test_dilatation_exact_for_affine_and_zero_for_rigid_motion(small):
     eps = 0.5 * (eps + eps.T)
     pos, rot = posed(m, x @ eps.T, np.zeros((n, 3)))
     theta, chi = cell_dilatation(m.poisson, pos, rot)
-    # least squares is exact for an affine field: θ_c = tr ε in every cell
-    np.testing.assert_allclose(theta, np.trace(eps), rtol=0, atol=1e-9 * np.abs(eps).max())
+    # least squares is exact for an affine field on the directions the fit
+    # resolves: θ_c = tr(P_c ε), P_c = Σ_j g_j Δx_jᵀ = A⁺A an orthogonal
+    # projector, the identity (θ_c = tr ε) in every cell that resolves all
+    # three directions, which every interior cell does
+    P = slot_projectors(m)
+    np.testing.assert_allclose(P, np.transpose(P, (0, 2, 1)), atol=1e-12)
+    np.testing.assert_allclose(P @ P, P, atol=1e-12)
+    rank = np.trace(P, axis1=1, axis2=2)
+    np.testing.assert_allclose(rank, np.round(rank), atol=1e-12)
+    full = np.round(rank) == 3
+    np.testing.assert_allclose(P[full], np.broadcast_to(np.eye(3), P[full].shape), atol=1e-12)
+    surface = np.zeros(n, dtype=bool)
+    surface[m.mesh.bface_cell] = True
+    assert np.all(full | surface) and full.sum() > 0.8 * n
+    np.testing.assert_allclose(theta, np.einsum("cij,ji->c", P, eps), rtol=0,
+                               atol=1e-9 * np.abs(eps).max())
+    np.testing.assert_allclose(theta[full], np.trace(eps), rtol=0, atol=1e-9 * np.abs(eps).max())
     assert np.all(chi == 1.0)
     # a finite rigid rotation (1 rad) about an arbitrary axis plus a shift
     w = np.array([0.3, -0.8, 0.5])
@@ -252,6 +279,145 @@ def test_broken_face_switches_its_cells_off(small):
     assert chi[a] == chi[b] == 0.0
     # less damage never more energy at the same positions
     assert poisson_energy(m.poisson, pos, rot, st, dmg) <= poisson_energy(m.poisson, pos, rot)
+
+
+def slab(nu, seed=1):
+    """A Voronoi slab one cell thick: 40 × 40 × 2 mm, cells of 2 mm (400)."""
+    return make(f"{{kind: voronoi, size: 0.002, seed: {seed}}}", nu,
+                box="[0.04, 0.04, 0.002]")
+
+
+@pytest.fixture(scope="module")
+def slabs():
+    return slab(0.3), slab(0.0)
+
+
+def test_one_cell_thick_slab_keeps_its_stable_step(slabs):
+    """All neighbours of a slab cell lie nearly in its plane: the fit must
+    not resolve the thickness direction from small centroid offsets
+    (RCOND; before it, this slab's true step fell 10 times at ν = 0.3).
+
+    Bound: the corrected lattice is the α = 1 lattice of E0(ν) plus the
+    auxiliary term.  The α = 1 lattice is E0(ν)/E0(0) times the ν = 0
+    lattice with its k_s lowered (α(0) ≥ 1), so its ω² is at most
+    E0(ν)/E0(0) times ω_0².  The auxiliary stress adds λ to the modulus
+    E0(ν) of a longitudinal wave (α = 1: 2μ = E0), and the truncated fit
+    amplifies a cell's gains over an isotropic stencil's by at most
+    κ = tr(A⁺) μ_max / 3 ≤ (2 + 1/RCOND)/3 (physics/poisson.py; λ not
+    condensed, the larger).  So
+
+        ω² ≤ ω_0² E0(ν)/E0(0) (1 + κ λ/E0(ν)),   dt ≥ dt_0 / √(that factor)
+
+    for the true step 2/ω_max, and for the estimate (its row sums are made
+    of the same terms).  The estimate must stay below the true step (the
+    explicit run is stable)."""
+    from rbsm_dyn.solvers import modal
+    m, m0 = slabs
+    assert m.poisson_on and not m0.poisson_on
+    e0_0, alpha_0, _ = stiffness_rule("calibrated", "voronoi", E, 0.0)
+    e0, alpha, lam = stiffness_rule("calibrated", "voronoi", E, 0.3)
+    assert alpha_0 >= alpha == 1.0
+    kappa = (2.0 + 1.0 / RCOND) / 3.0
+    factor = 1.0 / np.sqrt(e0 / e0_0 * (1.0 + kappa * lam / e0))
+    exact = 2.0 / modal.omega_max(m)
+    exact0 = 2.0 / modal.omega_max(m0)
+    est, est0 = m.stable_dt(), m0.stable_dt()
+    assert est <= exact
+    assert exact >= factor * exact0
+    assert est >= factor * est0
+
+
+def in_plane_moduli(model, core=0.25):
+    """E and ν of a slab under uniform in-plane uniaxial stress along x and
+    y (as stiffness.uniaxial_moduli, the strain fitted in the plane):
+    E = σ/ε_kk, ν = −ε_ll/ε_kk, the mean of the two axes."""
+    from rbsm_dyn.physics.integrate import FIXED
+    from rbsm_dyn.stiffness import solve_linear
+    mesh, n = model.mesh, model.n_bodies
+    x = model.body_pos0[:n]
+    lo, hi = np.asarray(mesh.box, float)
+    centre = 0.5 * (lo + hi)
+    load = np.zeros((n, 6, 2))
+    for k in (0, 1):
+        for side, sgn in ((2 * k, -1.0), (2 * k + 1, 1.0)):
+            sel = mesh.bface_side == side
+            cell = mesh.bface_cell[sel]
+            f = np.zeros((sel.sum(), 3))
+            f[:, k] = sgn * mesh.bface_area[sel]                 # σ = 1 Pa
+            np.add.at(load[:, :3, k], cell, f)
+            np.add.at(load[:, 3:, k], cell, np.cross(mesh.bface_centroid[sel] - x[cell], f))
+    kind = np.zeros((n, 6), dtype=np.int8)
+    kind[np.argmin(np.linalg.norm(x - centre, axis=1))] = FIXED
+    U, _ = solve_linear(model, load, kind=kind, value=np.zeros((n, 6)))
+    E_k, nu_k = [], []
+    for k in (0, 1):
+        length = hi[k] - lo[k]
+        sel = (x[:, k] >= lo[k] + core * length) & (x[:, k] <= hi[k] - core * length)
+        A = np.hstack([np.ones((sel.sum(), 1)), x[sel, :2] - centre[:2]])
+        coef, *_ = np.linalg.lstsq(A, U[sel, :2, k], rcond=None)
+        eps = 0.5 * (coef[1:].T + coef[1:])
+        E_k.append(1.0 / eps[k, k])
+        nu_k.append(-eps[1 - k, 1 - k] / eps[k, k])
+    return np.mean(E_k), np.mean(nu_k)
+
+
+def test_one_cell_thick_slab_is_in_plane_stress(slabs):
+    """The slab's faces are free: σ_zz = 0, so its in-plane Poisson ratio is
+    the material's ν (plane stress), not ν/(1 − ν) (plane strain: the
+    thickness direction dropped from the fit without condensing λ) nor the
+    bare lattice's ≈ 0 (a fit that lets a spurious ε_zz cancel the in-plane
+    dilatation).  The measured ν must lie nearer to ν than to either."""
+    nu = 0.3
+    _, nu_eff = in_plane_moduli(slabs[0])
+    assert 0.5 * nu < nu_eff < 0.5 * (nu + nu / (1 - nu))
+
+
+SPLIT = textwrap.dedent("""\
+    name: poisson-split
+    domain: {box: [[0, 0, 0], [1, 1, 1]]}
+    mesh: {kind: voronoi, size: 0.25, seed: 3}
+    materials:
+      a: {density: 8000, young: 2.0e11, poisson: 0.3}
+      b: {density: 8000, young: 2.0e5, poisson: 0.3}
+    groups:
+      right: {box: [[0.5, -1, -1], [2, 2, 2]], material: b}
+    solver: {mode: static}
+    """)
+CUT = SPLIT.replace(", material: b", "") + (
+    "cuts: [{point: [0.5, 0, 0], normal: [1, 0, 0], within: [[-1, -1, -1], [2, 2, 2]]}]\n")
+
+
+@pytest.mark.parametrize("split", ["cut", "material"])
+def test_cut_and_material_interface_do_not_link_the_fit(split):
+    """A cut through the whole block (or an interface to another material)
+    at x = 0.5: moving the right part rigidly (a finite rotation and a
+    shift) strains neither part, so θ_c = 0 and no auxiliary force in every
+    cell; the cut faces are no links, so χ_c of the cut's flanks stays 1
+    (their auxiliary stress stays on) at the initial spring states."""
+    text = CUT if split == "cut" else SPLIT
+    m = build_model(load_case_text(text, "t.yaml"))
+    n = m.n_bodies
+    assert m.poisson_on and (m.n_cut > 0) == (split == "cut")
+    right = m.body_pos0[:n, 0] > 0.5
+    assert 0 < right.sum() < n
+    w = np.array([0.2, -0.5, 0.4])
+    ang = np.linalg.norm(w)
+    W = np.array([[0, -w[2], w[1]], [w[2], 0, -w[0]], [-w[1], w[0], 0]]) / ang
+    R = np.eye(3) + np.sin(ang) * W + (1 - np.cos(ang)) * W @ W
+    x = m.body_pos0[:n]
+    u = np.where(right[:, None], (x - 0.75) @ R.T + 0.75 - x + [0.3, 0.1, -0.2], 0.0)
+    pos, rot = posed(m, u, np.where(right[:, None], w, 0.0))
+    st = m.spring_state0
+    theta, chi = cell_dilatation(m.poisson, pos, rot, st, np.zeros(m.n_springs))
+    assert np.abs(theta).max() <= 1e-12
+    assert np.all(chi == 1.0)
+    f_scale = m.poisson.cell_lv.max() * np.abs(m.poisson.slot_gw).max()
+    assert np.abs(aux_wrench(m, pos, rot)).max() <= 1e-11 * f_scale
+    # and the separation is no strain only because the fit does not cross:
+    # the same motion without the split strains the cells along it
+    whole = build_model(load_case_text(case_text(SMALL, 0.3), "t.yaml"))
+    theta, _ = cell_dilatation(whole.poisson, *posed(whole, u, np.where(right[:, None], w, 0.0)))
+    assert np.abs(theta).max() > 1e-3
 
 
 DYNAMIC = textwrap.dedent("""\

@@ -11,18 +11,68 @@ is derived from a potential, so that the stiffness stays symmetric, the
 energy is strain energy and the forces conserve momentum:
 
     U_aux = Σ_c ½ λ_c V_c χ_c θ_c²,
-    θ_c = Σ_j [(R_c g̃_j) · (x_j − x_c) − g_j · (x_j⁰ − x_c⁰)]    (j: c's neighbours)
+    θ_c = Σ_j [(R_c g̃_j) · (x_j − x_c) − g_j · (x_j⁰ − x_c⁰)]    (j: c's links)
 
 θ_c is the trace of the least-squares displacement gradient of cell c from
-its face neighbours' centroids: G_c = Σ_j w_j Δu_j Δx_jᵀ A_c⁻¹,
+its linked neighbours' centroids: G_c = Σ_j w_j Δu_j Δx_jᵀ A_c⁺,
 A_c = Σ_j w_j Δx_j Δx_jᵀ, w_j = A_f/|Δx_j|² (face area over squared
-distance), so tr G_c = Σ_j g_j · Δu_j with g_j = w_j A_c⁻¹ Δx_j.  It is exact
-for any affine displacement (all cells, including the surface ones), and
-its small-strain form does not see a rigid rotation (tr W = 0).  For
+distance), so tr G_c = Σ_j g_j · Δu_j with g_j = w_j A_c⁺ Δx_j.  For an
+affine displacement u = ε x it gives θ_c = tr(P_c ε), P_c = A_c⁺A_c the
+projector on the directions the fit resolves (below): tr ε exactly in
+every cell that resolves all three (in a bulk Voronoi mesh all interior
+cells and most surface ones).  Its small-strain form does not see a rigid
+rotation (tr(P W) = 0 for P symmetric, W antisymmetric).  For
 finite rotations g_j is carried by the cell's rotation increment
 (g̃_j = R0_cᵀ g_j is stored in the principal frame, R_c g̃_j = R_Δc g_j), so
 a rigid motion of the whole neighbourhood gives θ_c = 0 exactly, at any
 rotation size.
+
+Links (build_poisson): cell c's fit uses the neighbours j of the same
+material joined by a face none of whose spring points is broken at the
+start.  A cut (`cuts`, a pre-broken face) is a crack: the displacement
+jumps across it, so a fit across it would read the opening as strain
+(a rigid separation of the two flanks would be loaded).  A face between two
+materials is bonded, but the strain jumps across it (displacement and
+traction are continuous, strain is not): a fit across it mixes the two
+materials' strains, and a steel cell's λ would then act on a soft
+neighbour's translations (Kalthoff–Winkler's slot, 10⁶ times softer than
+steel, would carry volumetric stress of steel's size).  The one-sided fit
+from c's own material is still exact for an affine field in it.  (Faces
+that break during a run stay links: dropping them would change θ_c
+discontinuously; χ_c below handles them.)
+
+Unresolved directions: the fit cannot see a strain along a direction e in
+which the links barely spread (A_c's eigenvalue μ_e small against its
+largest): all neighbours of a cell of a slab one cell thick lie nearly in
+its plane.  A plain pseudo-inverse then divides by μ_e: gains |g_j| ~
+1/μ_e, a spurious ε_ee built from small out-of-plane offsets of the
+centroids, and a stiffness ~1/μ_e that shrank the stable step of such a
+slab about 9 times (Kalthoff–Winkler, 2 mm cells: 9.3e-9 s against 8.3e-8 s
+at ν = 0); it also let ε_ee cancel the in-plane dilatation, so the slab's
+in-plane ν came out 0.07 instead of 0.3.  So A_c⁺ is the truncated
+pseudo-inverse (the truncated SVD of Hansen, Rank-Deficient and Discrete
+Ill-Posed Problems, SIAM 1998): the eigen-directions with μ_e ≤
+RCOND μ_max get no strain from the fit, which bounds the gains by
+tr A_c⁺ ≤ (2 + 1/RCOND)/μ_max (3/μ_max for an isotropic stencil).  A
+direction without links across it is bounded by free surface (a slab's
+faces, a body's surface, a cut's flanks), so its normal stress vanishes
+(an approximation only where the missing links are another material's):
+with k such directions the cell's λ is condensed to λ_k = 2μλ/(2μ + kλ)
+(condensed_lambda; k = 1 is plane stress), μ = α E0/2 the lattice's shear
+modulus.  Dropping the direction without condensing would give the slab
+plane-strain stiffness (in-plane ν → ν/(1 − ν)).  RCOND = 0.2: below the
+smallest ratio μ_min/μ_max of the interior cells of bulk Voronoi meshes
+(0.27–0.31 on unit cubes of 729–8000 cells, seeds 1, 2, 11: no interior
+cell is touched; 1–5 % of the cells, all on the surface, are, and the
+measured E/E and ν of tests/test_poisson.py move by at most 0.002); on a
+one cell thick slab (ν = 0.3, 2 mm cells, 900 cells, seeds 1 and 2) the
+in-plane ν is 0.21–0.22, 0.26, 0.27–0.28, 0.28 at RCOND = 0.05, 0.1,
+0.2, 0.3 (converged from 0.2 on; in-plane E/E 1.05, the slab lattice's
+own 1.06 at ν = 0), and 0.39–0.40 at RCOND = 0.2 without the
+condensation.  The stable step (model.py scaled_row_sums) bounds K_aux
+from the same slot_gw and cell_lv as the kernel uses, so it follows the
+truncated fit and stays a bound (Kalthoff–Winkler: 9.29e-8 s estimated,
+1.275e-7 s exact; 8.30e-8 and 1.136e-7 s at ν = 0).
 
 Forces (−∂U/∂x, −∂U/∂φ; p_c = λ_c V_c χ_c θ_c [N m], G_cj = R_c g̃_j [1/m]):
 
@@ -34,11 +84,11 @@ momentum: Σ_j (x_j − x_c) × (−p_c G_cj) + torque = 0 term by term.  So bot
 are conserved to round-off; U is invariant under rigid motion (Noether).
 The forces act on the centroids (no lever arms); the small-strain tangent
 at the reference is λ_c V_c b_c b_cᵀ on the translations only (the
-rotation derivative Σ_j g_j × Δx_j⁰ = 0 because A_c⁻¹ A_c is symmetric).
+rotation derivative Σ_j g_j × Δx_j⁰ = 0 because A_c⁺ A_c is symmetric).
 
-Damage (inelastic models): χ_c = min over the spring points of c's faces
+Damage (inelastic models): χ_c = min over the spring points of c's links
 of (1 − D), and 0 as soon as one of them is broken (spring_state ≥ 2).
-A cell next to a damaged face therefore carries a proportionally smaller
+A cell next to a damaged link therefore carries a proportionally smaller
 auxiliary stress, and none at all once a face is broken: no auxiliary
 tension crosses a crack.  Why per cell and not per face: scaling one face's
 share of θ_c by (1 − D) makes U_aux at fixed positions rise when that
@@ -59,13 +109,14 @@ same sums in the same order for any thread count):
     2. per body i: force p_i Σ_k G_ik − Σ_k p_j(k) G_j(k),rev(k),
        torque −p_i Σ_k G_ik × Δx_ik.
 
-Arrays (PoissonArrays, built once by build_poisson; n_slots = 2 × internal faces):
+Arrays (PoissonArrays, built once by build_poisson; n_slots = 2 × links):
   cell_slot_ptr (N+1,) int32: slots of cell c are cell_slot_ptr[c]:cell_slot_ptr[c+1];
   slot_cell (n_slots,) int32 neighbour j; slot_rev (n_slots,) int32 the
   slot (j → c); slot_g (n_slots, 3) [1/m] g̃ in c's principal frame;
   slot_gw (n_slots, 3) [1/m] g in world axes (reference); cell_c0 (N,)
-  Σ_j g_j · Δx_j⁰; slot_s0, slot_s1 (n_slots,) int32 the face's spring points;
-  cell_lv (N,) [J] λ_c V_c.
+  Σ_j g_j · Δx_j⁰ (= tr P_c, the number of resolved directions);
+  slot_s0, slot_s1 (n_slots,) int32 the face's spring points;
+  cell_lv (N,) [J] λ_c V_c (λ_c condensed: condensed_lambda).
 """
 from collections import namedtuple
 
@@ -73,11 +124,16 @@ import numba as nb
 import numpy as np
 import scipy.sparse as sp
 
+from .laws import BROKEN
+
 JIT = dict(cache=True, nogil=True, fastmath={"contract"}, error_model="numpy")
 IDX = np.int32
 
 PoissonArrays = namedtuple("PoissonArrays", "cell_slot_ptr slot_cell slot_rev slot_g slot_gw "
                                             "cell_c0 slot_s0 slot_s1 cell_lv")
+
+# relative eigenvalue cutoff of the least-squares fit (build_poisson)
+RCOND = 0.2
 
 # below this many slots the two loops run serially (parallel regions cost more
 # than the work; same order of sums, so the same result: physics/springs.py)
@@ -92,21 +148,47 @@ def empty_poisson(n_bodies):
 
 
 def build_poisson(face_cells, face_area, cell_centroid, cell_volume, cell_lambda, body_rot0,
-                  spring_face):
+                  spring_face, cell_shear, cell_material=None, spring_state0=None,
+                  rcond=RCOND):
     """PoissonArrays of a mesh (all NumPy, no loop over cells or faces).
 
     face_cells (F, 2), face_area (F,) [m²]: internal faces; cell_centroid
     (N, 3) [m]; cell_volume (N,) [m³]; cell_lambda (N,) [Pa] auxiliary Lamé
     constant per cell; body_rot0 (N, 3, 3) principal axes (columns);
     spring_face (S,) face of every spring point (< 0: support), in the
-    model's spring order: the points of one face must be consecutive."""
+    model's spring order: the points of one face must be consecutive;
+    cell_shear (N,) [Pa] the lattice's shear modulus μ (α E0/2), for the
+    condensation of unresolved directions; cell_material (N,) int: a face
+    between two materials is no link of the fit (None: one material);
+    spring_state0 (S,) int8 initial spring states: a face with a spring
+    point broken at the start (a cut) is no link either (None: all
+    intact); rcond: the relative eigenvalue cutoff of the fit (RCOND)."""
     n = len(cell_volume)
     F = len(face_cells)
     fa = np.asarray(face_cells[:, 0], dtype=np.int64)
     fb = np.asarray(face_cells[:, 1], dtype=np.int64)
-    c = np.concatenate([fa, fb])
-    j = np.concatenate([fb, fa])
-    face = np.concatenate([np.arange(F), np.arange(F)])
+    # spring points of each face (consecutive in the model's order)
+    sf = np.asarray(spring_face)
+    internal = np.nonzero(sf >= 0)[0]
+    s0 = np.full(F, len(sf), dtype=np.int64)
+    s1 = np.zeros(F, dtype=np.int64)
+    np.minimum.at(s0, sf[internal], internal)
+    np.maximum.at(s1, sf[internal], internal + 1)
+    count = np.bincount(sf[internal], minlength=F)
+    if np.any(s1 - s0 != count):
+        raise ValueError("the spring points of a face are not consecutive")
+    # the links of the fit: faces inside one material, not cut
+    link = np.ones(F, dtype=bool)
+    if cell_material is not None:
+        mat = np.asarray(cell_material)
+        link &= mat[fa] == mat[fb]
+    if spring_state0 is not None:
+        cut = np.asarray(spring_state0)[internal] >= BROKEN
+        link &= np.bincount(sf[internal], cut, minlength=F) == 0
+    keep = np.nonzero(link)[0]
+    c = np.concatenate([fa[keep], fb[keep]])
+    j = np.concatenate([fb[keep], fa[keep]])
+    face = np.concatenate([keep, keep])
     order = np.lexsort((j, c))
     c, j, face = c[order], j[order], face[order]
     ptr = np.concatenate([[0], np.cumsum(np.bincount(c, minlength=n))]).astype(IDX)
@@ -122,29 +204,47 @@ def build_poisson(face_cells, face_area, cell_centroid, cell_volume, cell_lambda
     for p in range(3):
         for q in range(p, 3):
             A[:, p, q] = A[:, q, p] = np.bincount(c, w * dx[:, p] * dx[:, q], minlength=n)
-    # pinv: a cell whose neighbours are coplanar gets the trace in their plane
-    Ainv = np.linalg.pinv(A, hermitian=True)
+    Ainv, rank = _truncated_inverse(A, rcond)
     g = np.empty_like(dx)
     for p in range(3):
         g[:, p] = w * sum(Ainv[c, p, q] * dx[:, q] for q in range(3))
-    # Σ_j g_j · Δx_j⁰ per cell (= tr(A⁺A): 3, or the rank of A)
+    # Σ_j g_j · Δx_j⁰ per cell (= tr(A⁺A): the rank of the fit, 3 in the bulk)
     cell_c0 = np.bincount(c, np.einsum("ki,ki->k", g, dx), minlength=n)
     g_body = np.empty_like(g)                                   # R0ᵀ g
     for p in range(3):
         g_body[:, p] = sum(body_rot0[c, q, p] * g[:, q] for q in range(3))
-    # spring points of each face (consecutive in the model's order)
-    sf = np.asarray(spring_face)
-    internal = np.nonzero(sf >= 0)[0]
-    s0 = np.full(F, len(sf), dtype=np.int64)
-    s1 = np.zeros(F, dtype=np.int64)
-    np.minimum.at(s0, sf[internal], internal)
-    np.maximum.at(s1, sf[internal], internal + 1)
-    count = np.bincount(sf[internal], minlength=F)
-    if np.any(s1 - s0 != count):
-        raise ValueError("the spring points of a face are not consecutive")
+    lam = condensed_lambda(np.asarray(cell_lambda, float), np.asarray(cell_shear, float),
+                           3 - rank)
     return PoissonArrays(ptr, j.astype(IDX), rev, np.ascontiguousarray(g_body),
                          np.ascontiguousarray(g), cell_c0, s0[face].astype(IDX),
-                         s1[face].astype(IDX), np.asarray(cell_lambda * cell_volume, float))
+                         s1[face].astype(IDX), np.asarray(lam * cell_volume, float))
+
+
+def _truncated_inverse(A, rcond):
+    """A⁺ (N, 3, 3) of symmetric positive semi-definite A (N, 3, 3) keeping
+    only the eigen-directions with eigenvalue > rcond × the cell's largest,
+    and the number kept (N,) int (0 for a cell without links)."""
+    mu, vec = np.linalg.eigh(A)
+    top = mu[:, -1:]
+    kept = (mu > rcond * top) & (top > 0)
+    inv = np.where(kept, 1.0 / np.where(kept, mu, 1.0), 0.0)
+    return np.einsum("npk,nk,nqk->npq", vec, inv, vec), kept.sum(axis=1)
+
+
+def condensed_lambda(lam, mu, k):
+    """The auxiliary λ of a cell whose fit resolves 3 − k directions: the
+    k unresolved ones carry no normal stress (σ_ee = 0, plane stress for
+    k = 1, uniaxial stress for k = 2), so condensing them out of
+    σ = 2μ ε + λ tr(ε) I leaves 2μ ε + λ_k θ I on the resolved subspace,
+
+        λ_k = 2μλ / (2μ + kλ)        (k = 0: λ; k = 1: the plane-stress λ*)
+
+    (σ_ee = 2μ ε_ee + λ tr ε = 0 gives ε_ee = −λ tr ε/(2μ) for each
+    unresolved e, so tr ε = 2μθ/(2μ + kλ); k = 1 is the plane-stress
+    λ* = 2μλ/(λ + 2μ) of the elasticity texts, e.g. Timoshenko & Goodier,
+    Theory of Elasticity, on plane stress).
+    lam, mu (N,) [Pa], k (N,) int."""
+    return np.where(lam > 0, 2.0 * mu * lam / np.maximum(2.0 * mu + k * lam, 1e-300), 0.0)
 
 
 # --------------------------------------------------------------------------
