@@ -261,12 +261,23 @@ def _check_rings(rings, paths, scale):
         path, i = where(e)
         raise GeometryError(path, f"self-intersecting polygon: edge {i} folds back "
                                   f"on edge {(i + 1) % int(size[e])}")
-    chunk = max(1, 4_000_000 // max(m, 1))
-    for s in range(0, m, chunk):
-        i = np.arange(s, min(m, s + chunk))[:, None]
-        j = np.arange(m)[None, :]
-        adjacent = (ring_of[i] == ring_of[j]) & (
-            (i == j) | (j == nxt[i]) | (i == nxt[j]))
+    # candidate pairs: edges whose bounding boxes overlap (sweep over x)
+    margin = 1e-9 * scale
+    xmin, xmax = np.minimum(a[:, 0], b[:, 0]), np.maximum(a[:, 0], b[:, 0]) + margin
+    ymin, ymax = np.minimum(a[:, 1], b[:, 1]), np.maximum(a[:, 1], b[:, 1]) + margin
+    order = np.argsort(xmin, kind="stable")
+    hi = np.searchsorted(xmin[order], xmax[order], side="right")
+    count = np.maximum(hi - np.arange(m) - 1, 0)
+    first = np.repeat(np.arange(m), count)
+    second = first + 1 + (np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count))
+    i_all, j_all = order[first], order[second]
+    keep = (ymin[i_all] <= ymax[j_all]) & (ymin[j_all] <= ymax[i_all])
+    i_all, j_all = np.minimum(i_all, j_all)[keep], np.maximum(i_all, j_all)[keep]
+    adjacent = (ring_of[i_all] == ring_of[j_all]) & ((j_all == nxt[i_all]) | (i_all == nxt[j_all]))
+    i_all, j_all = i_all[~adjacent], j_all[~adjacent]
+    chunk = 1_000_000
+    for s in range(0, len(i_all), chunk):
+        i, j = i_all[s:s + chunk], j_all[s:s + chunk]
         ai, bi, aj, bj = a[i], b[i], a[j], b[j]
         o1, o2 = _orient(ai, bi, aj), _orient(ai, bi, bj)
         o3, o4 = _orient(aj, bj, ai), _orient(aj, bj, bi)
@@ -274,16 +285,18 @@ def _check_rings(rings, paths, scale):
             (np.abs(o1) > tol) & (np.abs(o2) > tol) & (np.abs(o3) > tol) & (np.abs(o4) > tol)
         touch = _on_segment(ai, bi, aj, tol) | _on_segment(ai, bi, bj, tol) | \
             _on_segment(aj, bj, ai, tol) | _on_segment(aj, bj, bi, tol)
-        bad = (proper | touch) & ~adjacent & (j > i)
+        bad = proper | touch
         if np.any(bad):
-            ii, jj = np.argwhere(bad)[0]
-            e, f = int(i[ii, 0]), int(j[0, jj])
+            # report the first offending pair in input order
+            k = np.flatnonzero(bad)
+            k = k[np.lexsort((j[k], i[k]))[0]]
+            e, f = int(i[k]), int(j[k])
             pe, ie = where(e)
             pf, jf = where(f)
             if pe == pf:
                 raise GeometryError(pe, f"self-intersecting polygon: edges {ie} and {jf} "
-                                        f"{'cross' if proper[ii, jj] else 'touch'}")
-            raise GeometryError(pf, f"edge {jf} {'crosses' if proper[ii, jj] else 'touches'} "
+                                        f"{'cross' if proper[k] else 'touch'}")
+            raise GeometryError(pf, f"edge {jf} {'crosses' if proper[k] else 'touches'} "
                                     f"edge {ie} of {ring_desc(e)}")
     # containment: no edges cross, so one vertex decides
     for h in range(1, len(rings)):
