@@ -55,8 +55,9 @@ class Facets:
 
 
 def circle_segments(radius: float, chord: float) -> int:
-    """Smallest n >= 8 with r (1 - cos(pi/n)) <= chord (the sagitta of a
-    regular n-gon inscribed in the circle)."""
+    """Smallest n >= 8 with r (1 - cos(pi/n)) <= chord: the sagitta of a
+    circular segment of angle 2 pi/n, s = r (1 - cos(θ/2)), is the largest
+    distance between the circle and a side of the inscribed regular n-gon."""
     if chord >= radius:
         return 8
     # sagitta s = r (1 - cos(pi/n))  =>  n = pi / acos(1 - s/r); then fix
@@ -71,12 +72,14 @@ def circle_segments(radius: float, chord: float) -> int:
 
 def _cap_height(radius, rho):
     """Height of the spherical cap over a circle of radius rho on a sphere of
-    radius r: r - sqrt(r^2 - rho^2), written without cancellation."""
+    radius r: r - sqrt(r^2 - rho^2) (Pythagoras: the circle's plane is
+    sqrt(r^2 - rho^2) from the centre), written without cancellation."""
     return rho * rho / (radius + np.sqrt(np.maximum(radius * radius - rho * rho, 0.0)))
 
 
 def _circumradius(a, b, c):
-    """Circumradius |ab| |bc| |ca| / (4 area) of triangles (..., 3)."""
+    """Circumradius R = |ab| |bc| |ca| / (4 area) of triangles (..., 3) (law
+    of sines, a = 2 R sin A, with area = (1/2) b c sin A)."""
     ab = np.linalg.norm(b - a, axis=-1)
     bc = np.linalg.norm(c - b, axis=-1)
     ca = np.linalg.norm(a - c, axis=-1)
@@ -209,7 +212,8 @@ def sphere_facets(center, radius, n) -> Facets:
 # -- prism ------------------------------------------------------------------
 
 def _shoelace(p):
-    """Signed area of a closed polygon (shoelace formula)."""
+    """Signed area of a closed polygon (Gauss's shoelace formula), positive
+    counter-clockwise."""
     q = np.roll(p, -1, axis=0)
     return 0.5 * float(np.sum(p[:, 0] * q[:, 1] - q[:, 0] * p[:, 1]))
 
@@ -308,7 +312,8 @@ def _check_rings(rings, paths, scale):
 
 
 def _point_in_ring(p, ring):
-    """Even-odd crossing test of one point against a polygon."""
+    """Even-odd crossing test of one point against a polygon (a ray crosses
+    the boundary an odd number of times from inside: Jordan curve theorem)."""
     a = ring
     b = np.roll(ring, -1, axis=0)
     up = (a[:, 1] <= p[1]) != (b[:, 1] <= p[1])
