@@ -175,9 +175,38 @@ def _fix_list(components: tuple[str, ...]):
     return BeforeValidator(expand)
 
 
+GEOMETRY_KINDS = ("cylinder", "sphere", "prism", "union", "difference", "intersection", "file")
+
+
 class Domain(_Node):
-    """The box that is cut into cells: ``box = [[x0, y0, z0], [x1, y1, z1]]``."""
-    box: Box
+    """The solid that is cut into cells: a box ``box = [[x0, y0, z0], [x1,
+    y1, z1]]``, or one geometry node (docs/case_file.md, "geometry"):
+    ``cylinder``, ``sphere``, ``prism``, ``union``, ``difference``,
+    ``intersection`` or ``file`` (+ ``name``, ``scale``, ``surfaces``),
+    checked by rbsm_dyn.geometry when the case is loaded."""
+    box: Optional[Box] = None
+    cylinder: Optional[dict] = None
+    sphere: Optional[dict] = None
+    prism: Optional[dict] = None
+    union: Optional[list] = None
+    difference: Optional[list] = None
+    intersection: Optional[list] = None
+    file: Optional[str] = None
+    name: Optional[str] = None
+    scale: Optional[float] = Field(default=None, gt=0)
+    surfaces: Optional[dict] = None
+
+    _solid: Any = PrivateAttr(default=None)
+
+    def kind(self) -> Optional[str]:
+        """The geometry kind given ('box', 'cylinder', ...), None if none."""
+        given = [k for k in ("box",) + GEOMETRY_KINDS if getattr(self, k) is not None]
+        return given[0] if len(given) == 1 else None
+
+    def spec(self) -> dict:
+        """The geometry node as a plain dict (rbsm_dyn.geometry.build_solid)."""
+        return {k: getattr(self, k) for k in ("box",) + GEOMETRY_KINDS
+                + ("name", "scale", "surfaces") if getattr(self, k) is not None}
 
 
 class Mesh(_Node):
@@ -189,6 +218,7 @@ class Mesh(_Node):
     divisions: Optional[Annotated[list[Annotated[int, Field(ge=1)]],
                                   _length(3, "[nx, ny, nz]")]] = None
     spring_points: Literal["moment", "centroid", "three"] = "moment"
+    chord: float = Field(default=0.05, gt=0, le=0.5)   # faceting: chord error / cell size
 
 
 class Yield(_Node):
@@ -229,8 +259,11 @@ class Group(_Node):
 
 
 class FaceSupport(_Node):
-    """``{face: xmin, fix: all}``: springs to the ground on a domain face."""
-    face: Face
+    """``{face: xmin, fix: all}``: springs to the ground on a domain face;
+    ``{surface: name, fix: ...}`` on a named surface of the domain's
+    geometry (the box's faces are the surfaces xmin ... zmax)."""
+    face: Optional[Face] = None
+    surface: Optional[str] = None
     fix: Annotated[list[FaceComponent], _fix_list(("x", "y", "z"))]
     breakable: bool = False
 
@@ -376,7 +409,7 @@ def _form_of(forms: dict[str, str]):
     return pick
 
 
-_BOUNDARY_FORMS = ("{face, fix}, {group, fix}, {group, velocity[, history]}, "
+_BOUNDARY_FORMS = ("{face, fix}, {surface, fix}, {group, fix}, {group, velocity[, history]}, "
                    "{group, displacement[, history]}")
 _LOAD_FORMS = "{group, force[, moment][, history]}, {gravity}"
 
@@ -385,7 +418,7 @@ BoundaryItem = Annotated[
           Annotated[GroupFix, Tag("GroupFix")],
           Annotated[GroupVelocity, Tag("GroupVelocity")],
           Annotated[GroupDisplacement, Tag("GroupDisplacement")]],
-    Discriminator(_form_of({"face": "FaceSupport", "fix": "GroupFix",
+    Discriminator(_form_of({"face": "FaceSupport", "surface": "FaceSupport", "fix": "GroupFix",
                             "velocity": "GroupVelocity",
                             "displacement": "GroupDisplacement"}),
                   custom_error_type="form",
@@ -459,6 +492,10 @@ class Case(_Node):
 #: are [time, amplitude] pairs: only the time column has a dimension.
 DIMENSIONS: dict[tuple[type, str], str] = {
     (Domain, "box"): "length",
+    **{(Domain, k): "geometry" for k in ("cylinder", "sphere", "prism", "union", "difference",
+                                         "intersection")},
+    (Domain, "scale"): "geometry_scale",
+    (Domain, "surfaces"): "geometry",
     (Mesh, "size"): "length",
     (Material, "density"): "density",
     (Material, "young"): "stress",
@@ -507,6 +544,35 @@ def _scale(value: Any, factor: float) -> Any:
     return value * factor
 
 
+#: keys of geometry nodes that are lengths (docs/case_file.md, "geometry")
+_GEOMETRY_LENGTHS = {"box", "base", "axis", "radius", "center", "polygon", "holes", "from",
+                     "to", "point", "tol"}
+
+
+def _geometry_to_si(node: Any, f: float, key: Optional[str] = None) -> Any:
+    """A geometry node's lengths times f (a file's coordinates: its scale)."""
+    if f == 1.0:
+        return node
+    if isinstance(node, dict):
+        out = {}
+        for k, v in node.items():
+            if k in _GEOMETRY_LENGTHS:
+                out[k] = _scale(v, f)
+            elif k == "file":
+                out[k] = v
+                out["scale"] = node.get("scale", 1.0) * f
+            elif k == "scale":
+                continue
+            else:
+                out[k] = _geometry_to_si(v, f, k)
+        if "scale" in node and "file" not in node:
+            out["scale"] = node["scale"]
+        return out
+    if isinstance(node, list):
+        return [_geometry_to_si(v, f, key) for v in node]
+    return node
+
+
 def _to_si(node: Any, factors: dict[str, float]) -> None:
     """Convert every field named in DIMENSIONS, in place, recursively."""
     if isinstance(node, list):
@@ -519,7 +585,12 @@ def _to_si(node: Any, factors: dict[str, float]) -> None:
         for name in type(node).model_fields:
             value = getattr(node, name)
             dim = DIMENSIONS.get((type(node), name))
-            if dim == "history" and value is not None:
+            if dim == "geometry" and value is not None:
+                setattr(node, name, _geometry_to_si(value, factors.get("length", 1.0)))
+            elif dim == "geometry_scale":
+                if factors.get("length", 1.0) != 1.0 and (value is not None or node.file):
+                    setattr(node, name, (1.0 if value is None else value) * factors["length"])
+            elif dim == "history" and value is not None:
                 f = factors.get("time", 1.0)
                 setattr(node, name, [[t * f, a] for t, a in value])
             elif dim is not None:
@@ -798,6 +869,40 @@ def _numbers(node: Any, path: KeyPath):
         yield path, node
 
 
+def domain_solid(case: Case, cell_size: Optional[float] = None):
+    """The domain's geometry as an rbsm_dyn.geometry Solid (built once, kept
+    on the case), faceted to the chord ``mesh.chord`` × the cell size (the
+    Voronoi size, or the blocks' smallest edge).  GeometryError → CaseError
+    at its key path under ``domain``."""
+    d = case.domain
+    if d._solid is not None:
+        return d._solid
+    from .geometry import GeometryError, build_solid
+    spec = d.spec()
+    m = case.mesh
+    if cell_size is None:
+        if m.kind == "voronoi" and m.size is not None:
+            cell_size = m.size
+        elif m.divisions is not None:
+            # the blocks' edge: the bounds of a coarse faceting first
+            try:
+                lo, hi = build_solid(spec, chord=1e9, base_dir=_case_dir(case)).bounds
+            except GeometryError as exc:
+                raise case.error(("domain",) + tuple(exc.path), exc.message) from None
+            cell_size = min(float(hi[i] - lo[i]) / m.divisions[i] for i in range(3))
+    chord = m.chord * (cell_size if cell_size else 1.0)
+    try:
+        d._solid = build_solid(spec, chord=chord, base_dir=_case_dir(case))
+    except GeometryError as exc:
+        raise case.error(("domain",) + tuple(exc.path), exc.message) from None
+    return d._solid
+
+
+def _case_dir(case: Case):
+    f = case._source_file
+    return Path(f).parent if f and not f.startswith("<") else Path.cwd()
+
+
 def _check(case: Case) -> None:
     """Rules across fields.  Raises the first CaseError found."""
     err = case.error
@@ -838,9 +943,28 @@ def _check(case: Case) -> None:
             if obj.given(key):
                 raise err(path + (key,), f"not used {why}")
 
-    check_box(case.domain.box, ("domain", "box"), strict=True)
-    (x0, y0, z0), (x1, y1, z1) = case.domain.box
-    volume = (x1 - x0) * (y1 - y0) * (z1 - z0)
+    kind = case.domain.kind()
+    if kind is None:
+        given = [k for k in ("box",) + GEOMETRY_KINDS if getattr(case.domain, k) is not None]
+        raise err(("domain",), "give one geometry: box or one of " + ", ".join(GEOMETRY_KINDS)
+                  + (f" (got {', '.join(given)})" if given else ""))
+    if kind == "box":
+        check_box(case.domain.box, ("domain", "box"), strict=True)
+        for key in ("name", "scale", "surfaces"):
+            if case.domain.given(key):
+                raise err(("domain", key), "not used with box (the box's surfaces are "
+                          "xmin ... zmax)")
+        (x0, y0, z0), (x1, y1, z1) = case.domain.box
+        volume = (x1 - x0) * (y1 - y0) * (z1 - z0)
+    else:
+        m = case.mesh
+        if m.kind == "voronoi" and m.size is not None:
+            h0 = m.size
+        else:
+            h0 = None
+        solid = domain_solid(case, h0)
+        (x0, y0, z0), (x1, y1, z1) = solid.bounds
+        volume = solid.volume
 
     m = case.mesh
     if m.kind == "voronoi":
@@ -866,9 +990,9 @@ def _check(case: Case) -> None:
     else:
         h, reach = min((x1 - x0) / m.divisions[0], (y1 - y0) / m.divisions[1],
                        (z1 - z0) / m.divisions[2]), FAR_CELLS_BLOCKS
-    far = max(abs(c) for corner in case.domain.box for c in corner)
+    far = max(abs(c) for c in (x0, y0, z0, x1, y1, z1))
     if far > reach * h:
-        raise err(("domain", "box"), f"too far from the origin for cells of {h:.3g}: "
+        raise err(("domain", kind), f"too far from the origin for cells of {h:.3g}: "
                   f"{far:.3g} away, at most {reach:g} cell sizes (the mesh would lose "
                   "precision); move the domain nearer to the origin")
 
@@ -922,6 +1046,21 @@ def _check(case: Case) -> None:
 
     for i, b in enumerate(case.boundary):
         path = ("boundary", i)
+        if isinstance(b, FaceSupport):
+            if (b.face is None) == (b.surface is None):
+                raise err(path, "give face (a box side) or surface (a named surface), not both")
+            if b.face is not None and kind != "box":
+                raise err(path + ("face",), f"face selects a side of a box domain; this domain "
+                          f"is a {kind}: use surface: <name>")
+            if b.surface is not None and kind != "box":
+                from .geometry import GeometryError
+                try:
+                    domain_solid(case).surface_ids(b.surface)
+                except GeometryError as exc:      # unknown or ambiguous name
+                    raise err(path + ("surface",), exc.message) from None
+            elif b.surface is not None and b.surface not in FACES:
+                raise err(path + ("surface",), f"unknown surface {b.surface!r} of the box "
+                          f"(its surfaces: {', '.join(FACES)})")
         if not isinstance(b, FaceSupport):
             check_group(b.group, path + ("group",))
         if isinstance(b, (FaceSupport, GroupFix)):
@@ -1054,6 +1193,8 @@ def load_case_text(text: str | bytes, filename: str = "<string>") -> Case:
     _check(case)
 
     _to_si(case, UNIT_FACTORS[case.units])
+    if UNIT_FACTORS[case.units]:
+        case.domain._solid = None      # checked in the file's units: rebuilt in SI
     case.units = "SI"
     if case.output.file is None:      # in the working directory, whatever the name holds
         safe = "".join("_" if c in "/\\" or not c.isprintable() else c for c in case.name)

@@ -14,7 +14,7 @@ import numpy as np
 
 from .calibration import stiffness_rule
 from .fracture_calibration import fracture_ratios
-from .mesh import block_mesh, principal_axes, spring_points, voronoi_mesh
+from .mesh import block_mesh, principal_axes, spring_points, voronoi_mesh, voronoi_seeds
 from .partition import spring_schedule
 from .physics.integrate import DISPLACEMENT, FIXED, VELOCITY, refresh_all_rotations
 from .physics.laws import (BROKEN, CONTACT_OFF, CRITERIA, ELASTIC, N_PARAMS, P_COH, P_CRIT,
@@ -209,11 +209,36 @@ def new_state(model):
 
 
 def build_mesh(case):
+    """Cells of the domain: a box cut directly (blocks, Voronoi clipped by
+    mirrors), any other geometry by clipping the cells of a box around it
+    to the solid (mesh/clip.py): Voronoi cells of the seeds inside the
+    solid, or blocks over its bounds."""
     m = case.mesh
-    box = np.asarray(case.domain.box, dtype=float)
+    if case.domain.kind() == "box":
+        box = np.asarray(case.domain.box, dtype=float)
+        if m.kind == "blocks":
+            return block_mesh(box, tuple(m.divisions))
+        return voronoi_mesh(box, m.size, seed=m.seed, min_spacing=m.min_spacing)
+    from .case import domain_solid
+    from .mesh.clip import clip_to_solid
+    solid = domain_solid(case)
+    lo, hi = solid.bounds
     if m.kind == "blocks":
-        return block_mesh(box, tuple(m.divisions))
-    return voronoi_mesh(box, m.size, seed=m.seed, min_spacing=m.min_spacing)
+        cells = block_mesh(np.array([lo, hi]), tuple(m.divisions))
+    else:
+        # a margin of half a cell: no side of the box on the solid's surface
+        box = np.array([lo - 0.5 * m.size, hi + 0.5 * m.size])
+        seeds = voronoi_seeds(box, m.size, seed=m.seed, min_spacing=m.min_spacing)
+        seeds = seeds[solid.contains(seeds)]
+        if len(seeds) == 0:
+            raise case.error(("mesh", "size"), "no cell seed falls inside the solid: make the "
+                             "cells smaller than the solid")
+        cells = voronoi_mesh(box, m.size, seeds=seeds)
+    try:
+        return clip_to_solid(cells, solid.vertices, solid.triangles, solid.tri_surface,
+                             solid.surface_names, box=np.array([lo, hi]))
+    except ValueError as exc:
+        raise case.error(("mesh",), str(exc)) from None
 
 
 def _frames_from_normals(normal):
@@ -303,7 +328,7 @@ def _select(case, name, centroids):
     if name == "all":
         return np.arange(len(centroids), dtype=IDX)
     box = np.asarray(case.groups[name].box, dtype=float)
-    tol = 1e-9 * np.max(np.abs(np.asarray(case.domain.box, dtype=float)))
+    tol = 1e-9 * np.max(np.abs(centroids)) if len(centroids) else 0.0
     inside = np.all((centroids >= box[0] - tol) & (centroids <= box[1] + tol), axis=1)
     return np.nonzero(inside)[0].astype(IDX)
 
@@ -402,38 +427,59 @@ def build_model(case, mesh=None):
     sup = []
     seen = set()
     for j, item in enumerate(case.boundary or []):
-        if getattr(item, "face", None) is None:
+        if not hasattr(item, "surface"):
             continue
-        side = FACES.index(item.face)
-        if side in seen:
-            raise case.error(("boundary", j, "face"), f"face {item.face} is supported twice")
-        seen.add(side)
+        key = "face" if item.face is not None else "surface"
+        name = item.face if item.face is not None else item.surface
+        if case.domain.kind() == "box":
+            ids = (FACES.index(name),)
+        else:
+            from .case import domain_solid
+            ids = domain_solid(case).surface_ids(name)
+        if seen & set(ids):
+            raise case.error(("boundary", j, key), f"{key} {name} is supported twice")
+        seen |= set(ids)
         fix = ("x", "y", "z") if item.fix == "all" else tuple(item.fix)
-        sel = np.nonzero(mesh.bface_side == side)[0]
-        ptr = np.concatenate([[0], np.cumsum(np.diff(mesh.bface_vertex_ptr)[sel])])
-        xyz = np.concatenate([mesh.bface_vertex_xyz[mesh.bface_vertex_ptr[i]:mesh.bface_vertex_ptr[i + 1]]
-                              for i in sel])
+        sel = np.nonzero(np.isin(mesh.bface_side, ids))[0]
+        if len(sel) == 0:
+            continue
+        from .mesh._core import _gather
+        ptr, vid = _gather(mesh.bface_vertex_ptr, np.arange(len(mesh.bface_vertex_xyz)), sel)
+        xyz = mesh.bface_vertex_xyz[vid]
         bsp = spring_points(ptr, xyz, mesh.bface_normal[sel], rule)
         bf = sel[bsp.face]
         cell = mesh.bface_cell[bf]
         nrm_b = mesh.bface_normal[bf]
         h = np.einsum("ij,ij->i", mesh.bface_centroid[bf] - cen[cell], nrm_b)
         kk = e0[cell] / h
-        # frame (n, s, t) = (±e_k, e_k+1, n × s): local components are world axes
-        axis = side // 2
-        e_s = np.zeros(3)
-        e_s[(axis + 1) % 3] = 1.0
-        nvec = np.zeros(3)
-        nvec[axis] = 1.0 if side % 2 else -1.0
-        frame = matrix_to_quat(np.stack([nvec, e_s, np.cross(nvec, e_s)], axis=1))
-        comp = [axis, (axis + 1) % 3, (axis + 2) % 3]
+        axis_of = np.argmax(np.abs(nrm_b), axis=1)
+        aligned = np.abs(nrm_b[np.arange(len(bf)), axis_of]) > 1.0 - 1e-12
         k = np.stack([kk, alpha[cell] * kk, alpha[cell] * kk], axis=1)
-        for c in range(3):
-            if "xyz"[comp[c]] not in fix:
-                k[:, c] = 0.0
+        if np.all(aligned) and len(np.unique(axis_of)) == 1:
+            # frame (n, s, t) = (±e_k, e_k+1, n × s): local components are world axes
+            axis = int(axis_of[0])
+            e_s = np.zeros(3)
+            e_s[(axis + 1) % 3] = 1.0
+            frames = np.empty((len(bf), 4))
+            for sgn in (-1.0, 1.0):
+                nvec = np.zeros(3)
+                nvec[axis] = sgn
+                on = np.sign(nrm_b[:, axis]) == sgn
+                frames[on] = matrix_to_quat(np.stack([nvec, e_s, np.cross(nvec, e_s)], axis=1))
+            comp = [axis, (axis + 1) % 3, (axis + 2) % 3]
+            for c in range(3):
+                if "xyz"[comp[c]] not in fix:
+                    k[:, c] = 0.0
+        else:
+            # a curved or slanted surface: the springs' frame is the face's
+            # own (n, s, t); only a full support is defined there
+            if set(fix) != {"x", "y", "z"}:
+                raise case.error(("boundary", j, "fix"), f"surface {name} is not normal to "
+                                 "one axis: only fix: all is possible on it")
+            frames = _frames_from_normals(nrm_b)
         sup.append(dict(a=cell, b=np.full(len(cell), n), point=bsp.point,
                         normal=nrm_b, area=bsp.weight, h=h, k=k * bsp.weight[:, None],
-                        frame=np.tile(frame, (len(cell), 1)), face=(-1 - bf).astype(IDX),
+                        frame=frames, face=(-1 - bf).astype(IDX),
                         law=(1 + body_material[cell]
                              + (0 if item.breakable else len(mat_names))).astype(IDX),
                         state0=np.zeros(len(cell), dtype=np.int8)))
@@ -464,7 +510,7 @@ def build_model(case, mesh=None):
     static = case.solver.mode != "dynamic"
     end_time = getattr(case.solver, "end_time", None) or 1.0
     for j, item in enumerate(case.boundary or []):
-        if getattr(item, "face", None) is not None:
+        if hasattr(item, "surface"):          # a support on a face or surface
             continue
         ids = groups[item.group]
         if getattr(item, "fix", None) is not None:
