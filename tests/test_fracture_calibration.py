@@ -3,11 +3,13 @@
 material`, the default) a Voronoi lattice dissipates G_f per unit of
 projected crack area in a notched tension specimen, at two cell sizes, and
 a homogeneous specimen fails at f_t (issue 11).  Each figure is the mean of
-two meshes (seeds 7 and 8, not among the seeds of the calibration table).
-Tolerances: f_t within 5 %; G_f within 12 %, twice the standard deviation of
-a two-specimen mean, since one 8-cell-wide specimen scatters by ±9 % with
-its crack path (docs/calibration.md, "Fracture": the issue's 5 % needs larger
-specimens or more of them)."""
+meshes whose seeds are not among those of the calibration table (1-16):
+four for G_f (seeds 17-20), two for f_t (17, 18).  Tolerances: f_t within
+5 % (one specimen scatters by ±1 %); G_f within 12 %, twice the standard
+deviation of a four-specimen mean with the table's own uncertainty
+(2·√(0.105²/4 + 0.027²) = 0.116), since one 8-cell-wide specimen scatters by
+±8-11 % with its crack path (docs/calibration.md, "Fracture": the issue's
+5 % would need some fifty specimens per cell size, or larger ones)."""
 import numpy as np
 import pytest
 
@@ -15,7 +17,8 @@ from rbsm_dyn.fracture_calibration import brittleness, fracture_ratios, tension_
 
 E, FT = 30.0e9, 3.0e6          # concrete-like; only β = l_ch/Δ matters
 GF = 1.8                       # J/m²: l_ch = E G_f/f_t² = 6 mm
-SEEDS = (7, 8)
+SEEDS = (17, 18, 19, 20)
+FT_SEEDS = (17, 18)
 W = 0.016                      # specimen width [m]
 
 
@@ -37,7 +40,8 @@ def balance_error(h):
 def test_notched_specimen_dissipates_gf_per_projected_area(run_case, cell):
     """Double-edge-notched prism (half the width cut) pulled apart: the
     fracture dissipation at full separation is G_f × ligament area (the
-    projected crack area) within 12 %, at two cell sizes (β = 3 and 3.75);
+    projected crack area) within 12 % (mean of four meshes), at two cell
+    sizes (β = 3 and 3.75);
     the energy balance closes within 1 % of the work."""
     dissipated = []
     for seed in SEEDS:
@@ -57,7 +61,7 @@ def test_direct_tension_strength_is_ft(run_case):
     """A prism in uniaxial tension carries at most f_t (peak reaction over
     the section) within 5 %; the energy balance closes within 1 %."""
     peak = []
-    for seed in SEEDS:
+    for seed in FT_SEEDS:
         text, area, gf = tension_specimen(cell=0.002, cells_across=round(W / 0.002), notch=0.0,
                                           young=E, tensile_strength=FT, fracture_energy=GF,
                                           seed=seed)
