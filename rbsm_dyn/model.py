@@ -233,7 +233,8 @@ def build_mesh(case):
         if len(seeds) == 0:
             raise case.error(("mesh", "size"), "no cell seed falls inside the solid: make the "
                              "cells smaller than the solid")
-        cells = voronoi_mesh(box, m.size, seeds=seeds)
+        from .mesh.voronoi import voronoi_cells
+        cells = voronoi_cells(seeds, m.size, box)
     try:
         return clip_to_solid(cells, solid.vertices, solid.triangles, solid.tri_surface,
                              solid.surface_names, box=np.array([lo, hi]))

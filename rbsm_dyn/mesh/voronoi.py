@@ -203,7 +203,10 @@ def voronoi_mesh(box, size, seed=0, min_spacing=0.5, *, seeds=None) -> Mesh:
     raise RuntimeError("Voronoi tessellation failed to tile the box")
 
 
-def _build(box, size, seeds, V, vid, rid, cnt, kp, kq, kside):
+def _build(box, size, seeds, V, vid, rid, cnt, kp, kq, kside, bnormal=None):
+    """Mesh from qhull's ridges (kp, kq: seed ids, kside: the box side of a
+    boundary ridge or −1; ``bnormal`` (R, 3): outward normals of the boundary
+    ridges when they are not box sides, voronoi_cells)."""
     N = len(seeds)
 
     # merge Voronoi vertices closer than tol (near-degenerate seed sets)
@@ -233,8 +236,11 @@ def _build(box, size, seeds, V, vid, rid, cnt, kp, kq, kside):
     d = seeds[kq[~isb]] - seeds[kp[~isb]]
     normal[~isb] = d / np.linalg.norm(d, axis=1)[:, None]
     normal[isb] = 0.0
-    ax = kside[isb] // 2
-    normal[np.flatnonzero(isb), ax] = np.where(kside[isb] % 2 == 0, -1.0, 1.0)
+    if bnormal is None:
+        ax = kside[isb] // 2
+        normal[np.flatnonzero(isb), ax] = np.where(kside[isb] % 2 == 0, -1.0, 1.0)
+    else:
+        normal[isb] = bnormal[isb]
     cnt = np.bincount(rid, minlength=R)
     m = np.stack([np.bincount(rid, xyz[vid, j], minlength=R) for j in range(3)], 1)
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -269,5 +275,44 @@ def _build(box, size, seeds, V, vid, rid, cnt, kp, kq, kside):
         box, xyz,
         np.stack([kp[fi], kq[fi]], axis=1), f_ptr, f_vid, normal[fi],
         kp[bi], kside[bi], b_ptr, b_vid,
-        n_cells=N, ref=seeds,
+        n_cells=N, ref=seeds, b_normal=None if bnormal is None else normal[bi],
     )
+
+
+def voronoi_cells(seeds, size, box) -> Mesh:
+    """Voronoi cells of ``seeds`` (inside ``box``), closed far outside it:
+    26 frame points at 4 box diagonals from its centre (the directions of a
+    cube's corners, edges and faces) bound every cell, and a face between a
+    seed and a frame point lies more than 1.75 diagonals from the centre,
+    outside the box.  No mirrors: for cells that are clipped to a solid in
+    the box afterwards (mesh/clip.py), one qhull run on N + 26 points.  The
+    Mesh's boundary faces are those frame faces (bface_side 0, their true
+    normals); its box is the frame's."""
+    seeds = np.asarray(seeds, dtype=np.float64)
+    box = check_box(box)
+    N = len(seeds)
+    c = box.mean(axis=0)
+    d = float(np.linalg.norm(box[1] - box[0]))
+    g = np.array(np.meshgrid([-1, 0, 1], [-1, 0, 1], [-1, 0, 1], indexing="ij")).reshape(3, -1).T
+    g = g[np.any(g != 0, axis=1)].astype(np.float64)
+    frame = c + 4.0 * d * g / np.linalg.norm(g, axis=1)[:, None]
+    pts = np.vstack([seeds, frame])
+    from scipy.spatial import Voronoi
+    vor = Voronoi(pts)
+    rp = vor.ridge_points.astype(np.int64)
+    p, q = rp.min(axis=1), rp.max(axis=1)
+    keep = np.flatnonzero(p < N)
+    rv = vor.ridge_vertices
+    sub = [rv[i] for i in keep]
+    cnt = np.fromiter((len(x) for x in sub), dtype=np.int64, count=len(sub))
+    vid = np.fromiter((v for x in sub for v in x), dtype=np.int64, count=int(cnt.sum()))
+    if np.any(vid < 0):
+        raise RuntimeError("a Voronoi cell is not closed by the frame points")
+    rid = np.repeat(np.arange(len(keep)), cnt)
+    kp, kq = p[keep], q[keep]
+    kside = np.where(kq < N, -1, 0)
+    bn = pts[kq] - seeds[kp]
+    bn /= np.linalg.norm(bn, axis=1)[:, None]
+    big = np.array([c - 4.0 * d, c + 4.0 * d])
+    return _build(big, size, seeds, np.array(vor.vertices, dtype=np.float64), vid, rid, cnt,
+                  kp, kq, kside, bnormal=bn)
