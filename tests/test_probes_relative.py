@@ -112,9 +112,9 @@ def test_points_follow_the_rotation_of_their_cells_in_pure_bending(run_case):
 
 
 def test_a_point_is_read_on_the_cell_that_holds_it():
-    """Random points of a Voronoi cube: the cell point_body returns has the
-    point inside its convex hull (the cells are convex)."""
-    from scipy.spatial import Delaunay
+    """Random points of a Voronoi cube: the cell point_body returns (by
+    winding numbers) has the point on the inner side of the plane of each of
+    its polygons (the cells are convex; the plane by Newell's normal)."""
     text = """
     name: cube
     domain: {box: [[0, 0, 0], [0.1, 0.1, 0.1]]}
@@ -127,9 +127,45 @@ def test_a_point_is_read_on_the_cell_that_holds_it():
     rng = np.random.default_rng(0)
     for p in rng.uniform(0, 0.1, (20, 3)):
         c = point_body(mesh, p)
-        verts = mesh.vertices[mesh.cell_vertex_ptr[c]:mesh.cell_vertex_ptr[c + 1]]
-        assert Delaunay(verts).find_simplex(p) >= 0
+        for q in range(mesh.cell_poly_ptr[c], mesh.cell_poly_ptr[c + 1]):
+            v = mesh.vertices[mesh.poly_vertex[mesh.poly_ptr[q]:mesh.poly_ptr[q + 1]]]
+            normal = np.cross(v, np.roll(v, -1, axis=0)).sum(axis=0)   # outward
+            assert (p - v.mean(axis=0)) @ normal <= 1e-12 * np.linalg.norm(normal)
     assert point_body(mesh, [0.2, 0.05, 0.05]) is None          # outside every cell
+
+
+def test_a_point_outside_the_solid_lies_in_no_cell_and_the_run_says_so(run_case, tmp_path,
+                                                                        capsys):
+    """A notched beam (a box minus a notch): the notch's mouth corners on
+    the bottom face belong to the cells beside the notch; a point in the
+    notch, inside the bounds, to none, and a run with it exits 2 naming
+    the point's key (the history says why it failed)."""
+    from rbsm_dyn.__main__ import main
+    text = textwrap.dedent("""\
+        name: notch
+        domain:
+          difference:
+            - {box: [[0, 0, 0], [0.2, 0.05, 0.05]], name: beam}
+            - {box: [[0.095, -0.01, 0.0], [0.105, 0.06, 0.02]], name: notch}
+        mesh: {kind: blocks, divisions: [8, 2, 2]}
+        materials:
+          c: {density: 2400, young: 3.0e10, poisson: 0.0}
+        boundary: [{surface: beam.xmin, fix: all}]
+        solver: {mode: linear}
+        output:
+          probes:
+            cmod: {quantity: relative_displacement, points: [[0.095, 0.025, 0], [0.105, 0.025, 0]],
+                   component: x}
+        """)
+    mesh = build_model(load_case_text(text)).mesh
+    left, right = point_body(mesh, [0.095, 0.025, 0]), point_body(mesh, [0.105, 0.025, 0])
+    assert mesh.cell_centroid[left, 0] < 0.095 < 0.105 < mesh.cell_centroid[right, 0]
+    assert point_body(mesh, [0.1, 0.025, 0.01]) is None
+    path = tmp_path / "void.yaml"
+    path.write_text(text.replace("[0.095, 0.025, 0], [0.105", "[0.1, 0.025, 0.01], [0.105"))
+    assert main([str(path), "--out", str(tmp_path / "void.h5"), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "output.probes.cmod.points[0]: lies in no cell" in err
 
 
 def test_points_in_mm_are_converted():

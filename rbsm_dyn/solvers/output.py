@@ -80,42 +80,54 @@ def rotation_vectors(model, body_quat):
 
 
 def point_body(mesh, point):
-    """The body whose cell holds a point [m] (on a face, edge or corner
-    shared by cells, the one whose centroid is nearest).  A cell that
-    holds it is found among the cells whose bounding box does, by the planes
-    of their polygons (convex cells); when none of those does (a point on
-    no convex cell: round-off, a non-convex cell), the nearest centroid
-    among them; None when no cell's box holds the point."""
+    """The body whose cell holds a point [m], or None when no cell does.
+
+    A cell holds p when its winding number about p is positive: the sum of
+    the solid angles of its (fan-triangulated, outward) polygons seen from
+    p over 4π, 1 inside, 1/2 on a face, a corner's share on an edge or a
+    vertex, 0 outside (solid angle of a triangle: Van Oosterom & Strackee,
+    IEEE Trans. Biomed. Eng. 30 (1983) 125–126); exact for non-convex
+    cells too.  Only the cells whose bounding box holds p are looked at.  On
+    a face, edge or corner shared by cells, the one whose centroid is
+    nearest."""
     p = np.asarray(point, dtype=float)
     V = mesh.vertices
     cvp = np.asarray(mesh.cell_vertex_ptr, dtype=np.int64)
     lo = np.minimum.reduceat(V, cvp[:-1], axis=0)
     hi = np.maximum.reduceat(V, cvp[:-1], axis=0)
-    tol = 1e-9 * float(np.max(V.max(axis=0) - V.min(axis=0)))
+    size = float(np.max(V.max(axis=0) - V.min(axis=0)))
+    tol = 1e-9 * size
     cand = np.nonzero(np.all((lo - tol <= p) & (p <= hi + tol), axis=1))[0]
     if len(cand) == 0:
         return None
-    centroid = mesh.cell_centroid
     # the polygons of the candidate cells, in cell order
     cp = np.asarray(mesh.cell_poly_ptr, dtype=np.int64)
     npoly = cp[cand + 1] - cp[cand]
     first = np.cumsum(npoly) - npoly
     polys = np.arange(npoly.sum()) - np.repeat(first, npoly) + np.repeat(cp[cand], npoly)
+    # their fan triangles (v0, v_k, v_k+1), k = 1 .. n-2
     pp = np.asarray(mesh.poly_ptr, dtype=np.int64)
-    nv = pp[polys + 1] - pp[polys]
-    vfirst = np.cumsum(nv) - nv
-    k = np.arange(nv.sum()) - np.repeat(vfirst, nv)            # position in its polygon
-    start = np.repeat(pp[polys], nv)
-    v = V[mesh.poly_vertex[start + k]]
-    w = V[mesh.poly_vertex[start + (k + 1) % np.repeat(nv, nv)]]
-    # Newell's normal (outward: counter-clockwise seen from outside) and the
-    # polygon's vertex mean: the plane; signed distance of p from it
-    normal = np.add.reduceat(np.cross(v, w), vfirst, axis=0)
-    mid = np.add.reduceat(v, vfirst, axis=0) / nv[:, None]
-    dist = np.einsum("ki,ki->k", p - mid, normal) / np.linalg.norm(normal, axis=1)
-    inside = np.maximum.reduceat(dist, first) <= tol
-    pool = cand[inside] if inside.any() else cand
-    return int(pool[np.argmin(np.linalg.norm(centroid[pool] - p, axis=1))])
+    ntri = pp[polys + 1] - pp[polys] - 2
+    tfirst = np.cumsum(ntri) - ntri
+    k = np.arange(ntri.sum()) - np.repeat(tfirst, ntri) + 1
+    start = np.repeat(pp[polys], ntri)
+    a = V[mesh.poly_vertex[start]] - p
+    b = V[mesh.poly_vertex[start + k]] - p
+    c = V[mesh.poly_vertex[start + k + 1]] - p
+    la, lb, lc = (np.linalg.norm(x, axis=1) for x in (a, b, c))
+    num = np.einsum("ki,ki->k", a, np.cross(b, c))
+    den = (la * lb * lc + np.einsum("ki,ki->k", a, b) * lc
+           + np.einsum("ki,ki->k", a, c) * lb + np.einsum("ki,ki->k", b, c) * la)
+    # tan(Ω/2) = num/den; p in the triangle's plane: Ω = 2π inside it (den
+    # < 0; the limit from the cell's side), 0 outside, 0 on its edges
+    flat = np.abs(num) <= 1e-12 * la * lb * lc
+    omega = np.where(flat, np.where(den < 0, 2 * np.pi, 0.0), 2 * np.arctan2(num, den))
+    cell_of_tri = np.repeat(np.repeat(np.arange(len(cand)), npoly), ntri)
+    winding = np.bincount(cell_of_tri, omega, minlength=len(cand)) / (4 * np.pi)
+    pool = cand[winding > 1e-6]
+    if len(pool) == 0:
+        return None
+    return int(pool[np.argmin(np.linalg.norm(mesh.cell_centroid[pool] - p, axis=1))])
 
 
 def probe_plan(model, probes, case=None):
@@ -143,14 +155,20 @@ def probe_plan(model, probes, case=None):
         for k, pt in enumerate(p.points):
             found = point_body(model.mesh, pt)
             if found is None:
+                # (raised when the first frame is recorded, inside the run,
+                # where the command line reports a CaseError with exit 2)
                 where = ("output", "probes", name, "points", k)
-                msg = "lies in no cell of the model"
-                raise case.error(where, msg) if case is not None else ValueError(msg)
+                msg = (f"lies in no cell of the model (got {list(pt)}: inside the "
+                       "domain's bounds, outside its solid)")
+                plan[name] = ("error", case.error(where, msg) if case is not None
+                              else ValueError(msg))
+                break
             i = found
             pt = np.asarray(pt, dtype=float)
             # the arm from the centroid in the body's principal frame (R(q) moves it)
             ends.append((i, R0[i].T @ (pt - model.body_pos0[i]), pt))
-        plan[name] = ("points", ends[0], ends[1], proj)
+        else:
+            plan[name] = ("points", ends[0], ends[1], proj)
     return plan
 
 
@@ -278,6 +296,8 @@ class Recorder:
         out = {}
         for name, p in self.probes.items():
             plan = self.plan[name]
+            if plan[0] == "error":
+                raise plan[1]
             if plan[0] != "group":
                 out[name] = self.relative_displacement(state, plan)
                 continue
