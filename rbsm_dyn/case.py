@@ -24,7 +24,7 @@ import math
 import re
 import warnings
 from pathlib import Path
-from typing import Annotated, Any, Literal, Optional, Union
+from typing import Annotated, Any, Literal, Optional, Union, get_args
 
 from pydantic import (BaseModel, BeforeValidator, ConfigDict, Discriminator,
                       Field, PrivateAttr, Tag, ValidationError, model_validator)
@@ -39,7 +39,8 @@ __all__ = [
     "CaseError", "load_case", "load_case_text", "Case", "Domain", "Mesh",
     "Material", "Yield", "Rupture", "Group", "FaceSupport", "GroupFix",
     "GroupVelocity", "GroupDisplacement", "InitialVelocity", "GroupLoad",
-    "Gravity", "Cut", "Damping", "Solver", "Probe", "RelativeProbe", "Output", "DIMENSIONS",
+    "SurfaceLoad", "Gravity", "Cut", "Damping", "Solver", "Probe", "RelativeProbe", "Output",
+    "DIMENSIONS",
     "MAX_CELLS", "NUMBER_LIMIT",
 ]
 
@@ -159,6 +160,7 @@ Box = Annotated[list[Vec3], _length(2, "[[x0, y0, z0], [x1, y1, z1]]")]
 History = Annotated[list[Annotated[list[float], _length(2, "[time, amplitude]")]],
                     Field(min_length=1)]
 Face = Literal["xmin", "xmax", "ymin", "ymax", "zmin", "zmax"]
+FACES = get_args(Face)          # the surfaces of a box domain
 Component = Literal["x", "y", "z", "rx", "ry", "rz"]
 FaceComponent = Literal["x", "y", "z"]
 
@@ -303,6 +305,19 @@ class GroupLoad(_Node):
     history: Optional[History] = None
 
 
+class SurfaceLoad(_Node):
+    """``{surface: name, pressure: p}`` (force −p n A on each boundary face
+    of the surface, n its outward normal: p > 0 pushes into the solid) or
+    ``{surface: name, traction: [tx, ty, tz]}`` (force t A per face), at
+    each face's area centroid; optional ``history``.  ``follower: false``
+    (the default and, for now, the only value): a dead load, fixed in space."""
+    surface: str
+    pressure: Optional[float] = None
+    traction: Optional[Vec3] = None
+    follower: bool = False
+    history: Optional[History] = None
+
+
 class Gravity(_Node):
     """``{gravity: [gx, gy, gz]}``: acceleration on every body."""
     gravity: Vec3
@@ -411,7 +426,8 @@ def _form_of(forms: dict[str, str]):
 
 _BOUNDARY_FORMS = ("{face, fix}, {surface, fix}, {group, fix}, {group, velocity[, history]}, "
                    "{group, displacement[, history]}")
-_LOAD_FORMS = "{group, force[, moment][, history]}, {gravity}"
+_LOAD_FORMS = ("{group, force[, moment][, history]}, {surface, pressure[, history]}, "
+               "{surface, traction[, history]}, {gravity}")
 
 BoundaryItem = Annotated[
     Union[Annotated[FaceSupport, Tag("FaceSupport")],
@@ -425,13 +441,16 @@ BoundaryItem = Annotated[
                   custom_error_message=f"expected one of {_BOUNDARY_FORMS}")]
 LoadItem = Annotated[
     Union[Annotated[Gravity, Tag("Gravity")],
-          Annotated[GroupLoad, Tag("GroupLoad")]],
+          Annotated[GroupLoad, Tag("GroupLoad")],
+          Annotated[SurfaceLoad, Tag("SurfaceLoad")]],
     Discriminator(_form_of({"gravity": "Gravity", "group": "GroupLoad",
-                            "force": "GroupLoad", "moment": "GroupLoad"}),
+                            "surface": "SurfaceLoad", "force": "GroupLoad",
+                            "moment": "GroupLoad", "pressure": "SurfaceLoad",
+                            "traction": "SurfaceLoad"}),
                   custom_error_type="form",
                   custom_error_message=f"expected one of {_LOAD_FORMS}")]
 _TAGS = {"FaceSupport", "GroupFix", "GroupVelocity", "GroupDisplacement",
-         "Gravity", "GroupLoad", _PROBE_TAG, _RELATIVE_TAG}
+         "Gravity", "GroupLoad", "SurfaceLoad", _PROBE_TAG, _RELATIVE_TAG}
 
 
 class Case(_Node):
@@ -516,6 +535,9 @@ DIMENSIONS: dict[tuple[type, str], str] = {
     (GroupLoad, "force"): "force",
     (GroupLoad, "moment"): "moment",
     (GroupLoad, "history"): "history",
+    (SurfaceLoad, "pressure"): "stress",
+    (SurfaceLoad, "traction"): "stress",
+    (SurfaceLoad, "history"): "history",
     (Gravity, "gravity"): "acceleration",
     (Cut, "point"): "length",
     (Cut, "within"): "length",
@@ -938,6 +960,19 @@ def _check(case: Case) -> None:
                 raise err(path + (i,), "history times must increase "
                           f"(got {_show(hist[i][0])} after {_show(hist[i - 1][0])})")
 
+    def check_surface(name, path):
+        # a named surface of the domain (a box's: xmin ... zmax)
+        if kind == "box":
+            if name not in FACES:
+                raise err(path, f"unknown surface {name!r} of the box "
+                                f"(its surfaces: {', '.join(FACES)})")
+            return
+        from .geometry import GeometryError
+        try:
+            domain_solid(case).surface_ids(name)
+        except GeometryError as exc:      # unknown or ambiguous name
+            raise err(path, exc.message) from None
+
     def check_only(obj, keys, path, why):
         for key in keys:
             if obj.given(key):
@@ -1088,6 +1123,16 @@ def _check(case: Case) -> None:
             gravity += 1
             if gravity > 1:
                 raise err(path, "gravity given twice")
+            continue
+        if isinstance(load, SurfaceLoad):
+            check_surface(load.surface, path + ("surface",))
+            if (load.pressure is None) == (load.traction is None):
+                raise err(path, "give pressure or traction, not both" if load.pressure
+                          is not None else "required key missing: pressure or traction")
+            if load.follower:
+                raise err(path + ("follower",), "follower loads are not implemented yet: "
+                          "a surface load is a dead load (follower: false)")
+            check_history(load.history, path + ("history",))
             continue
         check_group(load.group, path + ("group",))
         if not (load.given("force") or load.given("moment")):

@@ -334,6 +334,35 @@ def _select(case, name, centroids):
     return np.nonzero(inside)[0].astype(IDX)
 
 
+def surface_ids(case, mesh, name):
+    """Indices into mesh.surface_names of a named surface of the domain (a
+    box's: xmin ... zmax; else rbsm_dyn.geometry's naming rules)."""
+    if case.domain.kind() == "box":
+        return (mesh.surface_names.index(name),)
+    from .case import domain_solid
+    return domain_solid(case).surface_ids(name)
+
+
+def surface_load(case, mesh, item, path):
+    """Dead load of a surface-load item on its boundary faces: (cells (B,),
+    forces (B, 3) [N], moments about the cell centroids (B, 3) [N m]), one
+    row per face.  Pressure p: F = −p n A (n the outward normal, p > 0
+    pushes into the solid); traction t: F = t A; A the face's true area,
+    applied at its area centroid x_f: M = (x_f − x_c) × F (DESIGN.md §6)."""
+    faces = np.nonzero(np.isin(mesh.bface_side, surface_ids(case, mesh, item.surface)))[0]
+    if len(faces) == 0:
+        raise case.error(path + ("surface",), f"surface {item.surface!r} has no boundary "
+                         "face in the mesh")
+    cells = mesh.bface_cell[faces]
+    area = mesh.bface_area[faces][:, None]
+    if item.pressure is not None:
+        f = -item.pressure * mesh.bface_normal[faces] * area
+    else:
+        f = np.asarray(item.traction, float)[None, :] * area
+    arm = mesh.bface_centroid[faces] - mesh.cell_centroid[cells]
+    return cells.astype(IDX), f, np.cross(arm, f)
+
+
 def build_model(case, mesh=None):
     """Model of a validated Case (mesh built here unless given).
 
@@ -536,27 +565,45 @@ def build_model(case, mesh=None):
                 dof_value[ids, c] = vec[c]
                 dof_hist[ids, c] = h
 
-    # loads: total force/moment shared over the group by volume
+    # loads: a group's total force/moment shared over its bodies by volume;
+    # a surface load's force on each boundary face of the surface, at the
+    # face's area centroid (surface_load).  One amplitude history per body:
+    # items on one body must share it (equal tables are one history).
     fext = np.zeros((n, 3))
     mext = np.zeros((n, 3))
     load_hist = np.full(n, -1, dtype=IDX)
+    load_item = np.full(n, -1)              # an item that loads the body
+    load_tables = {}
     gravity = np.zeros(3)
     for j, item in enumerate(case.loads or []):
         if getattr(item, "gravity", None) is not None:
             gravity += np.asarray(item.gravity, float)
             continue
-        ids = groups[item.group]
-        w = mesh.cell_volume[ids] / mesh.cell_volume[ids].sum()
-        h = add_hist(item.history) if getattr(item, "history", None) else -1
-        if np.any((load_hist[ids] != -1) & (load_hist[ids] != h)) or (
-                h != -1 and np.any(np.abs(fext[ids]).sum(1) + np.abs(mext[ids]).sum(1) > 0)):
+        if getattr(item, "surface", None) is not None:
+            ids, f, mom = surface_load(case, mesh, item, ("loads", j))
+        else:
+            ids = groups[item.group]
+            w = mesh.cell_volume[ids] / mesh.cell_volume[ids].sum()
+            f = w[:, None] * np.asarray(item.force, float)
+            mom = w[:, None] * np.asarray(item.moment, float)
+        h = -1
+        if getattr(item, "history", None):
+            key = tuple(map(tuple, item.history))
+            if key not in load_tables:
+                load_tables[key] = add_hist(item.history)
+            h = load_tables[key]
+        bodies = np.unique(ids)
+        clash = bodies[(load_item[bodies] >= 0) & (load_hist[bodies] != h)]
+        if len(clash):
+            k = int(load_item[clash[0]])
             raise case.error(("loads", j, "history"),
-                             "a body is loaded by two items with different histories")
-        load_hist[ids] = np.maximum(load_hist[ids], h)
-        if getattr(item, "force", None) is not None:
-            fext[ids] += w[:, None] * np.asarray(item.force, float)
-        if getattr(item, "moment", None) is not None:
-            mext[ids] += w[:, None] * np.asarray(item.moment, float)
+                             f"{len(clash)} bodies are also loaded by loads[{k}] with another "
+                             "history (a body follows one load history: give both items the "
+                             "same history, or load disjoint bodies)")
+        load_hist[bodies] = h
+        load_item[bodies] = j
+        np.add.at(fext, ids, f)
+        np.add.at(mext, ids, mom)
 
     lam_aux = np.array([m["lambda_aux"] for m in materials])[body_material]
     # the strain fit links cells of one material across intact faces (physics/poisson.py)
