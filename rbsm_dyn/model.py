@@ -237,7 +237,8 @@ def build_mesh(case):
         cells = voronoi_cells(seeds, m.size, box)
     try:
         return clip_to_solid(cells, solid.vertices, solid.triangles, solid.tri_surface,
-                             solid.surface_names, box=np.array([lo, hi]))
+                             solid.surface_names, box=np.array([lo, hi]),
+                             contains=solid.contains)
     except ValueError as exc:
         raise case.error(("mesh",), str(exc)) from None
 

@@ -29,12 +29,15 @@ def surface_of(solid):
     return v, t, s
 
 
-def clipped(solid, inside, size=H, seed=1):
+def clipped(solid, inside, size=H, seed=1, contains=True):
+    """The clipped mesh (interior cells skipping the boolean when
+    ``contains``) and the tessellation it came from."""
     v, t, s = surface_of(solid)
     box = np.array([v.min(0) - 0.5 * size, v.max(0) + 0.5 * size])
     seeds = voronoi_seeds(box, size, seed)
     cells = voronoi_mesh(box, size, seeds=seeds[inside(seeds)])
-    return clip_to_solid(cells, v, t, s, ("side", "bottom", "top")), cells
+    return clip_to_solid(cells, v, t, s, ("side", "bottom", "top"),
+                         contains=inside if contains else None), cells
 
 
 def in_cylinder(p, r=R):
@@ -65,6 +68,20 @@ def solid_mesh(request):
     solid = make()
     mesh, cells = clipped(solid, inside)
     return request.param, solid, mesh, cells, volume
+
+
+@pytest.mark.parametrize("name", list(SOLIDS))
+def test_interior_cells_skip_the_boolean_unchanged(name):
+    """Cells away from the surface skip the boolean: the mesh is the same
+    as when every cell goes through it (volumes, centroids, faces)."""
+    make, inside, volume = SOLIDS[name]
+    a, _ = clipped(make(), inside, contains=True)
+    b, _ = clipped(make(), inside, contains=False)
+    assert a.n_cells == b.n_cells and a.n_faces == b.n_faces and a.n_bfaces == b.n_bfaces
+    np.testing.assert_allclose(a.cell_volume, b.cell_volume, rtol=1e-9)
+    np.testing.assert_allclose(a.cell_centroid, b.cell_centroid, atol=1e-12)
+    np.testing.assert_array_equal(a.face_cells, b.face_cells)
+    np.testing.assert_allclose(a.face_area, b.face_area, rtol=1e-9, atol=1e-18)
 
 
 def test_cells_tile_the_solid(solid_mesh):

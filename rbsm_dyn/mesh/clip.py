@@ -137,13 +137,17 @@ def _chain(edge_from, edge_to, edge_region, n_vertices):
 
 
 def clip_to_solid(mesh, vertices, triangles, tri_surface, surface_names, *, min_volume=0.1,
-                  box=None):
+                  box=None, contains=None):
     """The cells of ``mesh`` (a tessellation of a box holding the solid, its
     box strictly larger than the solid's bounds) clipped to the closed
     surface (vertices, triangles counter-clockwise from outside, tri_surface
     ids into surface_names).  Returns a Mesh whose boundary faces carry the
     surface ids in ``bface_side`` and whose ``surface_names`` are the given
-    names; pieces below ``min_volume`` × mean cell volume are merged."""
+    names; pieces below ``min_volume`` × mean cell volume are merged.
+    ``contains`` (points → bool, the solid's inside test): cells that lie
+    inside the solid away from its surface (no triangle's bounding box meets
+    theirs) skip the boolean (a large mesh: only its surface layer goes
+    through manifold3d)."""
     import manifold3d as m3
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
@@ -156,13 +160,20 @@ def clip_to_solid(mesh, vertices, triangles, tri_surface, surface_names, *, min_
     pfid = np.concatenate([2 * np.arange(F), 2 * np.arange(F) + 1,
                            2 * F + np.arange(B)])[order]
     from .polyhedron import _fan_triangles
-    ctri, ctri_poly = _fan_triangles(mesh.poly_ptr, mesh.poly_vertex)
     _SOLID = 2 * F + B
     if _SOLID + len(triangles) >= 2 ** 31:
         raise ValueError("too many faces for one clipping boolean")
+    interior = (np.zeros(N, bool) if contains is None
+                else _interior_cells(mesh, vertices, triangles, contains))
+    # the polygons (and their vertices) of the cells that go through the boolean
+    npoly = np.diff(mesh.cell_poly_ptr)
+    cut_poly = np.repeat(~interior, npoly)
+    sp_ptr, sp_vid = _loops(mesh.poly_ptr, mesh.poly_vertex, np.nonzero(cut_poly)[0],
+                            np.zeros(int(cut_poly.sum()), bool))
+    ctri, ctri_poly = _fan_triangles(sp_ptr, sp_vid)
     cells = m3.Manifold(m3.Mesh64(vert_properties=np.array(mesh.vertices, np.float64),
                                   tri_verts=np.array(ctri, np.uint64),
-                                  face_id=np.array(pfid[ctri_poly], np.uint64)))
+                                  face_id=np.array(pfid[cut_poly][ctri_poly], np.uint64)))
     facet, facet_normal, facet_surface = solid_facets(vertices, triangles, tri_surface)
     solid = m3.Manifold(m3.Mesh64(vert_properties=np.array(vertices, np.float64),
                                   tri_verts=np.array(triangles, np.uint64),
@@ -190,12 +201,15 @@ def clip_to_solid(mesh, vertices, triangles, tri_surface, surface_names, *, min_
     if np.any(comp_cell < 0):
         raise ValueError("a part of the solid lies inside one cell without touching its faces: "
                          "make the cells smaller than the solid's features")
-    # pieces numbered by (cell, component): a cell's pieces stay together
-    porder = np.lexsort((np.arange(n_comp), comp_cell))
-    piece_of_comp = np.empty(n_comp, np.int64)
-    piece_of_comp[porder] = np.arange(n_comp)
-    piece = piece_of_comp[comp]
-    piece_cell = comp_cell[porder]
+    # pieces numbered by (cell, component): a cell's pieces stay together;
+    # an interior cell is one piece
+    inner = np.nonzero(interior)[0]
+    all_cell = np.concatenate([comp_cell, inner])
+    porder = np.lexsort((np.arange(len(all_cell)), all_cell))
+    piece_of = np.empty(len(all_cell), np.int64)
+    piece_of[porder] = np.arange(len(all_cell))
+    piece = piece_of[comp]
+    piece_cell = all_cell[porder]
 
     # a cell face on a plane of the solid (blocks: a block face in the
     # plane of a notch's side) may come out of the boolean with the cell's
@@ -233,6 +247,20 @@ def clip_to_solid(mesh, vertices, triangles, tri_surface, surface_names, *, min_
     loop_region[bl] = breg
     lfid = region_fid[loop_region]
     lpiece = region_piece[loop_region]
+    if len(inner):
+        # the interior cells' own polygons, as loops of their pieces
+        ipoly = np.nonzero(~cut_poly)[0]
+        i_ptr, i_vid = _loops(mesh.poly_ptr, mesh.poly_vertex, ipoly, np.zeros(len(ipoly), bool))
+        bf = np.concatenate([bf, i_vid + V])
+        ptr = np.concatenate([ptr, ptr[-1] + i_ptr[1:]])
+        lfid = np.concatenate([lfid, pfid[ipoly]])
+        pc = np.repeat(np.arange(N), npoly)[ipoly]
+        rank = np.full(N, -1, np.int64)
+        rank[inner] = np.arange(len(inner))
+        lpiece = np.concatenate([lpiece, piece_of[n_comp + rank[pc]]])
+        xyz = np.vstack([xyz, mesh.vertices])
+        V = len(xyz)
+        n_loops = len(lfid)
 
     # outward normals: the tessellation's face normal (from a to b: side 0)
     # or the facet's
@@ -363,6 +391,52 @@ def _facet_holding(points, normals, vertices, triangles, tri_facet, facet_normal
     out = np.full(len(points), -1, np.int64)
     out[q[inside]] = tri_facet[tri[inside]]
     return out
+
+
+def _interior_cells(mesh, vertices, triangles, contains):
+    """Cells inside the solid that no surface triangle comes near: a cell
+    whose bounding box lies in the solid's and meets no triangle's bounding
+    box, and whose centroid is inside.  The triangles' boxes are marked on a grid of the mean cell
+    size and each cell's box is looked up in the grid's summed-volume table
+    (no loop over cells or triangles)."""
+    v = np.asarray(vertices, float)
+    t = np.asarray(triangles, np.int64)
+    lo, hi = v.min(axis=0), v.max(axis=0)
+    h = float(np.median(mesh.cell_volume)) ** (1 / 3)
+    n = np.maximum(np.ceil((hi - lo) / h).astype(np.int64), 1)
+    h = (hi - lo) / n
+
+    def index(x, up):
+        k = np.floor((x - lo) / h).astype(np.int64)
+        return np.clip(k, 0, n - 1)
+
+    tv = v[t]
+    t0, t1 = index(tv.min(axis=1), False), index(tv.max(axis=1), True)
+    ext = t1 - t0 + 1
+    cnt = ext.prod(axis=1)
+    if cnt.sum() > 50 * n.prod():      # huge slanted triangles: no shortcut
+        return np.zeros(mesh.n_cells, bool)
+    tri = np.repeat(np.arange(len(t)), cnt)
+    r = np.arange(cnt.sum()) - np.repeat(np.cumsum(cnt) - cnt, cnt)
+    e = ext[tri]
+    i = t0[tri, 0] + r // (e[:, 1] * e[:, 2])
+    j = t0[tri, 1] + (r // e[:, 2]) % e[:, 1]
+    k = t0[tri, 2] + r % e[:, 2]
+    grid = np.zeros(n + 1, np.int64)
+    np.add.at(grid, (i + 1, j + 1, k + 1), 1)
+    sat = grid.cumsum(0).cumsum(1).cumsum(2)
+    cv = np.repeat(np.arange(mesh.n_cells), np.diff(mesh.cell_vertex_ptr))
+    cmin = np.full((mesh.n_cells, 3), np.inf)
+    cmax = np.full((mesh.n_cells, 3), -np.inf)
+    np.minimum.at(cmin, cv, mesh.vertices)
+    np.maximum.at(cmax, cv, mesh.vertices)
+    a, b = index(cmin, False), index(cmax, True) + 1
+    hits = (sat[b[:, 0], b[:, 1], b[:, 2]] - sat[a[:, 0], b[:, 1], b[:, 2]]
+            - sat[b[:, 0], a[:, 1], b[:, 2]] - sat[b[:, 0], b[:, 1], a[:, 2]]
+            + sat[a[:, 0], a[:, 1], b[:, 2]] + sat[a[:, 0], b[:, 1], a[:, 2]]
+            + sat[b[:, 0], a[:, 1], a[:, 2]] - sat[a[:, 0], a[:, 1], a[:, 2]])
+    within = np.all((cmin > lo) & (cmax < hi), axis=1)
+    return within & (hits == 0) & np.asarray(contains(mesh.cell_centroid), bool)
 
 
 def _roots(target):
