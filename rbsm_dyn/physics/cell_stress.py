@@ -16,6 +16,14 @@ assemblies", Mech. Mater. 22 (1996) 165–177.)
   counts for its cell a;
 * V_c: the cell's volume (rigid: the reference volume is the current one).
 
+**Surface loads** (loads on named surfaces) act on their faces, at each
+face's area centroid x_f, not at the centroid: like a support spring they
+count for their cell with the lever x_f − x_c (the reference one, as the
+load's moment about the centroid is booked fixed, model.surface_load):
+the `extra` term of cell_stress, built by the recorder
+(solvers/output.py surface_load_levers).  A group load (at the
+centroids, lever 0) adds nothing.
+
 Tension is positive.  The antisymmetric part ½ (S − Sᵀ) is the net moment
 of the springs about the centroid per unit volume (its axial vector is
 (1/2V) Σ l × f): zero at equilibrium without applied moments (loads and
@@ -27,7 +35,7 @@ internal spring cancel except for their lever arms, and with each body's
 equilibrium Σ_p f_p + F_c = 0 (F_c the loads and constraint forces at its
 centroid):
 
-    Σ_c V_c S_c = Σ_c x_c ⊗ F_c + Σ_supports m_p ⊗ f_p,
+    Σ_c V_c S_c = Σ_c x_c ⊗ F_c + Σ_supports m_p ⊗ f_p (+ Σ_faces (x_f − x_c) ⊗ F_f),
 
 the virial of the external forces at their points of application, which
 is V times the applied (boundary) average stress of the body (Bagi 1996;
@@ -172,13 +180,15 @@ def _aux_moment(cell_slot_ptr, slot_cell, slot_g, p, body_pos, body_rot, out):
         out[c, 8] += pc * s22
 
 
-def cell_stress(model, state, out=None):
+def cell_stress(model, state, out=None, extra=None):
     """σ_c (N, 3, 3) [Pa] of every cell now (module docstring): the
     symmetrised Love–Weber average of its spring forces, plus the auxiliary
     stress of the Poisson correction when the model has it.
 
     state.spring_force must hold the forces at state.body_pos/body_rot (the
-    solvers' spring_pass at an output step writes them)."""
+    solvers' spring_pass at an output step writes them).  extra: (cells
+    (K,), moments (K, 9) [N m]) added to those cells' Σ l ⊗ f (the surface
+    loads' lever ⊗ force at their present amplitude), or None."""
     m = model
     moment = spring_moment(m.phase_ptr, m.group_ptr, m.spring_bodies, m.spring_arm_a,
                            m.spring_arm_b, state.spring_force, state.body_pos, state.body_rot)
@@ -189,6 +199,8 @@ def cell_stress(model, state, out=None):
                                      state.spring_state, state.spring_dmg)
         _aux_moment(aux.cell_slot_ptr, aux.slot_cell, aux.slot_g, aux.cell_lv * chi * theta,
                     state.body_pos, state.body_rot, moment)
+    if extra is not None:
+        np.add.at(moment, extra[0], extra[1])
     if out is None:
         out = np.empty((m.n_bodies, 3, 3))
     _finish(moment, m.body_volume, out)

@@ -172,6 +172,29 @@ def probe_plan(model, probes, case=None):
     return plan
 
 
+def surface_load_levers(case, model):
+    """(cells (K,), lever ⊗ force (K, 9) [N m]) of the surface loads at
+    amplitude 1, one row per loaded boundary face: the face's force F_f
+    acts at its area centroid x_f, lever x_f − x_c from its cell's centroid
+    (reference), as model.surface_load books it.  For the cell stress
+    (physics/cell_stress.py): None without surface loads."""
+    from ..model import surface_ids, surface_load
+    mesh = model.mesh
+    cells, terms = [], []
+    for j, item in enumerate(case.loads):
+        if getattr(item, "surface", None) is None:
+            continue
+        c, f, _ = surface_load(case, mesh, item, ("loads", j))
+        # the faces surface_load loads, in its order
+        faces = np.nonzero(np.isin(mesh.bface_side, surface_ids(case, mesh, item.surface)))[0]
+        arm = mesh.bface_centroid[faces] - mesh.cell_centroid[c]
+        cells.append(np.asarray(c, dtype=np.int64))
+        terms.append(np.einsum("ki,kj->kij", arm, f).reshape(-1, 9))
+    if not cells:
+        return None
+    return np.concatenate(cells), np.concatenate(terms)
+
+
 class Recorder:
     """Opens the history, writes the static part, appends frames."""
 
@@ -182,6 +205,8 @@ class Recorder:
         self.fields = list(out.fields)
         self.probes = dict(out.probes or {})
         self.plan = probe_plan(model, self.probes, case)
+        self.levers = (surface_load_levers(case, model) if "cell_stress" in self.fields
+                       else None)
         self.writer = w = HistoryWriter(
             path, creator="rbsm_dyn", creator_version=__version__,
             parameters={"case_yaml": case.source_text,
@@ -251,6 +276,8 @@ class Recorder:
         self.fields = list(case.output.fields)
         self.probes = dict(case.output.probes or {})
         self.plan = probe_plan(model, self.probes, case)
+        self.levers = (surface_load_levers(case, model) if "cell_stress" in self.fields
+                       else None)
         self.observables = {"kinetic": "J", "strain": "J", "external_work": "J",
                             "damping": "J", "plastic": "J", "fracture": "J",
                             "n_broken": "1", "crack_area": "m2"}
@@ -355,7 +382,11 @@ class Recorder:
             elif name == "spring_force":
                 values[path_] = state.spring_force
             elif name == "cell_stress":
-                values[path_] = cell_stress(m, state)
+                extra = None
+                if self.levers is not None:
+                    cells, terms = self.levers
+                    extra = (cells, amp_load[cells, None] * terms)
+                values[path_] = cell_stress(m, state, extra=extra)
         obs = self.spring_observables(state)
         obs.update(observables)
         obs.update(self.probe_values(state, vel, omega, time, amp_load))
