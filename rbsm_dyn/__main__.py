@@ -115,8 +115,12 @@ def main(argv=None):
     except CaseError as exc:
         print(f"rbsm_dyn: {exc}", file=sys.stderr)
         return 2
+    for note in model.warnings:
+        print(f"rbsm_dyn: warning: {note}", file=sys.stderr)
     if command == "check":
         print(f"{path}: ok ({model.n_bodies} bodies, {model.n_springs} spring points)")
+        for line in _selections(case, model):
+            print(f"  {line}")
         return 0
     if command == "info":
         return _info(case, model, threads or numba.get_num_threads())
@@ -163,6 +167,8 @@ def _info(case, model, threads):
     print(f"case        {case.name} ({case.solver.mode})")
     print(f"bodies      {e.n_bodies}")
     print(f"springs     {e.n_springs} ({e.n_supports} supports, {model.n_cut} cut)")
+    for k, line in enumerate(_selections(case, model)):
+        print(f"{'selects' if k == 0 else '':<12}{line}")
     print(f"stable dt   {dt:.4g} s (estimate; used × dt_safety {case.solver.dt_safety})")
     if model.n_bodies <= INFO_OMEGA_MAX_BODIES:       # Lanczos: < 1 s at this size
         from .solvers.modal import omega_max
@@ -183,6 +189,24 @@ def _info(case, model, threads):
           f"({format_bytes(e.static_bytes)} static + {e.frames} frames of "
           f"{format_bytes(e.frame_bytes)}; fields: {', '.join(case.output.fields) or 'none'})")
     return 0
+
+
+def _selections(case, model):
+    """Lines naming the domain, its surfaces (boundary faces, area) and the
+    groups with the number of bodies each selects."""
+    import numpy as np
+    mesh = model.mesh
+    v = model.body_volume
+    out = [f"domain {case.domain.kind()}: {model.n_bodies} bodies, volume {v.sum():.6g} m³, "
+           f"smallest body {v.min() / v.mean():.3f} of the mean"]
+    if mesh is not None:
+        cnt = np.bincount(mesh.bface_side, minlength=len(mesh.surface_names))
+        area = np.bincount(mesh.bface_side, mesh.bface_area, minlength=len(mesh.surface_names))
+        for i, name in enumerate(mesh.surface_names):
+            out.append(f"surface {name}: {cnt[i]} faces, {area[i]:.6g} m²")
+    for name, ids in (model.groups or {}).items():
+        out.append(f"group {name}: {len(ids)} bodies" + ("  (selects none)" if len(ids) == 0 else ""))
+    return out
 
 
 EXTRA_OBSERVABLES = {"static": {"residual": "1"}, "linear": {"residual": "1"},

@@ -103,6 +103,7 @@ class Model:
     spring_state0: np.ndarray = None
     inelastic: bool = False
     poisson: object = None
+    warnings: tuple = ()          # messages for the user (conflicting constraints, ...)
 
     @property
     def poisson_on(self):
@@ -540,6 +541,20 @@ def build_model(case, mesh=None):
     dof_hist = np.full((n, 6), -1, dtype=IDX)
     static = case.solver.mode != "dynamic"
     end_time = getattr(case.solver, "end_time", None) or 1.0
+    dof_item = np.full((n, 6), -1)          # the boundary item that set each component
+    notes = []
+
+    def claim(ids, c, j, what):
+        """Warn when an earlier item prescribed component c of these bodies
+        differently (the later item wins)."""
+        prev = dof_item[ids, c]
+        clash = prev >= 0
+        if clash.any():
+            k = int(prev[clash][0])
+            notes.append(f"boundary[{j}] ({what}) and boundary[{k}] both prescribe "
+                         f"{COMPONENTS[c]} of {int(clash.sum())} bodies; boundary[{j}] wins")
+        dof_item[ids, c] = j
+
     for j, item in enumerate(case.boundary or []):
         if hasattr(item, "surface"):          # a support on a face or surface
             continue
@@ -547,6 +562,7 @@ def build_model(case, mesh=None):
         if getattr(item, "fix", None) is not None:
             fix = COMPONENTS if item.fix == "all" else tuple(item.fix)
             for c in fix:
+                claim(ids, COMPONENTS.index(c), j, "fix")
                 dof_kind[ids, COMPONENTS.index(c)] = FIXED
             continue
         if getattr(item, "velocity", None) is not None:
@@ -562,6 +578,7 @@ def build_model(case, mesh=None):
             h = add_hist(table)
         for c in range(3):
             if vec[c] is not None:
+                claim(ids, c, j, "velocity" if kind == VELOCITY else "displacement")
                 dof_kind[ids, c] = kind
                 dof_value[ids, c] = vec[c]
                 dof_hist[ids, c] = h
@@ -612,7 +629,7 @@ def build_model(case, mesh=None):
                              rot0, cat["face"], 0.5 * alpha * e0, body_material, cat["state0"])
                if np.any(lam_aux > 0) else empty_poisson(n))
     return Model(
-        poisson=poisson,
+        poisson=poisson, warnings=tuple(notes),
         n_bodies=n, body_mass=mass, body_inertia=inertia, body_volume=mesh.cell_volume.copy(),
         body_material=body_material, body_pos0=pos0, body_quat0=quat0,
         spring_bodies=sb, spring_arm_a=np.ascontiguousarray(arm_a),

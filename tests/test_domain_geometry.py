@@ -1,6 +1,8 @@
 """A domain of any shape (issue 12): `domain:` takes a geometry node
 (rbsm_dyn/geometry), its cells are clipped to the solid (mesh/clip.py) and
 supports act on its named surfaces (`boundary: [{surface: name, fix}]`)."""
+import textwrap
+
 import numpy as np
 import pytest
 
@@ -96,3 +98,27 @@ def test_bad_geometry_input_names_the_key(text, key, words):
         build_model(load_case_text(text))
     assert key in str(exc.value)
     assert words in str(exc.value)
+
+
+def test_check_lists_surfaces_groups_and_conflicts(tmp_path, capsys):
+    """`check` lists the domain's surfaces with their face count and area
+    (the faceted disc's area on top) and each group's body count, and warns
+    when two items prescribe one component of the same bodies."""
+    from rbsm_dyn.__main__ import main
+    from rbsm_dyn.geometry import circle_segments
+    text = column("{kind: voronoi, size: 0.025, seed: 3}").replace(
+        "boundary: [{surface: bottom, fix: all}]",
+        "boundary: [{surface: bottom, fix: all}, {group: top, fix: [x]},\n"
+        "               {group: all, velocity: [0.1, null, null]}]").replace(
+        "solver: {mode: linear}", "solver: {mode: dynamic, end_time: 1.0e-5}")
+    path = tmp_path / "c.yaml"
+    path.write_text(textwrap.dedent(text))
+    assert main(["check", str(path)]) == 0
+    out, err = capsys.readouterr()
+    n = circle_segments(R, 0.05 * 0.025)
+    top = [ln for ln in out.splitlines() if "surface cylinder0.top:" in ln]
+    assert len(top) == 1
+    assert float(top[0].split(",")[1].split()[0]) == pytest.approx(
+        n / 2 * R ** 2 * np.sin(2 * np.pi / n), rel=1e-5)
+    assert any(ln.strip().startswith("group top:") for ln in out.splitlines())
+    assert "boundary[2] (velocity) and boundary[1] both prescribe x" in err
