@@ -96,7 +96,8 @@ def split_passes(model, state, n_steps):
         dynamic_body_pass(k * s.dt, s.dt, s.body_wrench, s.body_support, m.body_mass,
                           m.body_inertia, s.body_pos, m.body_pos0, s.body_quat, m.body_quat0,
                           s.body_vel, s.body_angmom, s.body_rot, s.body_dq, m.body_fext,
-                          m.body_mext, m.body_load_hist, m.gravity, 0.0, m.dof_kind,
+                          m.body_mext, m.body_ffol, m.body_mfol, m.body_load_hist, m.gravity,
+                          0.0, m.dof_kind,
                           m.dof_value, m.dof_hist, m.hist_ptr, m.hist_t, m.hist_a,
                           s.body_work, s.body_damp, s.body_reaction)
         t2 = time.perf_counter()

@@ -310,7 +310,8 @@ class SurfaceLoad(_Node):
     of the surface, n its outward normal: p > 0 pushes into the solid) or
     ``{surface: name, traction: [tx, ty, tz]}`` (force t A per face), at
     each face's area centroid; optional ``history``.  ``follower: false``
-    (the default and, for now, the only value): a dead load, fixed in space."""
+    (default): a dead load, fixed in space; ``true``: it turns with the
+    face's cell (mode dynamic; linear takes its reference value)."""
     surface: str
     pressure: Optional[float] = None
     traction: Optional[Vec3] = None
@@ -1129,9 +1130,10 @@ def _check(case: Case) -> None:
             if (load.pressure is None) == (load.traction is None):
                 raise err(path, "give pressure or traction, not both" if load.pressure
                           is not None else "required key missing: pressure or traction")
-            if load.follower:
-                raise err(path + ("follower",), "follower loads are not implemented yet: "
-                          "a surface load is a dead load (follower: false)")
+            if load.follower and case.solver.mode == "static":
+                raise err(path + ("follower",), "a follower load needs solver.mode dynamic "
+                          "(or linear, where it keeps its reference direction); static "
+                          "mode takes dead loads only")
             check_history(load.history, path + ("history",))
             continue
         check_group(load.group, path + ("group",))

@@ -58,7 +58,10 @@ class Model:
       ranges of the phases (groups of a phase share no body).
     Constraints: dof_kind (N, 6) int8 (0 free, 1 fixed, 2 velocity, 3
       displacement), dof_value (N, 6), dof_hist (N, 6) int32.
-    Loads: body_fext, body_mext (N, 3) [N, N m], body_load_hist (N,) int32,
+    Loads: body_fext, body_mext (N, 3) [N, N m] world, fixed in space (dead);
+      body_ffol, body_mfol (N, 3) [N, N m] follower loads in the body's
+      principal frame (world R·f: they turn with the cell), (0, 3) when the
+      case has none; body_load_hist (N,) int32 amplitude of both;
       gravity (3,) [m/s²]; amplitude tables hist_ptr, hist_t, hist_a.
     Poisson correction (physics/poisson.py): poisson, a PoissonArrays of
       per-cell least-squares strain geometry and λ_c V_c; length 0 (and
@@ -89,6 +92,8 @@ class Model:
     dof_hist: np.ndarray
     body_fext: np.ndarray
     body_mext: np.ndarray
+    body_ffol: np.ndarray
+    body_mfol: np.ndarray
     body_load_hist: np.ndarray
     gravity: np.ndarray
     hist_ptr: np.ndarray
@@ -585,10 +590,13 @@ def build_model(case, mesh=None):
 
     # loads: a group's total force/moment shared over its bodies by volume;
     # a surface load's force on each boundary face of the surface, at the
-    # face's area centroid (surface_load).  One amplitude history per body:
-    # items on one body must share it (equal tables are one history).
+    # face's area centroid (surface_load); a follower's in the principal
+    # frames.  One amplitude history per body: items on one body must share
+    # it (equal tables are one history).
     fext = np.zeros((n, 3))
     mext = np.zeros((n, 3))
+    ffol = np.zeros((n, 3))
+    mfol = np.zeros((n, 3))
     load_hist = np.full(n, -1, dtype=IDX)
     load_item = np.full(n, -1)              # an item that loads the body
     load_tables = {}
@@ -620,8 +628,15 @@ def build_model(case, mesh=None):
                              "same history, or load disjoint bodies)")
         load_hist[bodies] = h
         load_item[bodies] = j
-        np.add.at(fext, ids, f)
-        np.add.at(mext, ids, mom)
+        if getattr(item, "follower", False):
+            # f_b = R0ᵀ f: constant in the rigid cell's frame
+            np.add.at(ffol, ids, np.einsum("nki,nk->ni", rot0[ids], f))
+            np.add.at(mfol, ids, np.einsum("nki,nk->ni", rot0[ids], mom))
+        else:
+            np.add.at(fext, ids, f)
+            np.add.at(mext, ids, mom)
+    if not any(getattr(item, "follower", False) for item in case.loads or []):
+        ffol = mfol = np.zeros((0, 3))
 
     lam_aux = np.array([m["lambda_aux"] for m in materials])[body_material]
     # the strain fit links cells of one material across intact faces (physics/poisson.py)
@@ -639,7 +654,8 @@ def build_model(case, mesh=None):
         spring_normal=cat["normal"], spring_area=cat["area"], spring_h=cat["h"],
         spring_face=cat["face"].astype(IDX), group_ptr=group_ptr, phase_ptr=phase_ptr,
         dof_kind=dof_kind, dof_value=dof_value, dof_hist=dof_hist,
-        body_fext=fext, body_mext=mext, body_load_hist=load_hist, gravity=gravity,
+        body_fext=fext, body_mext=mext, body_ffol=ffol, body_mfol=mfol,
+        body_load_hist=load_hist, gravity=gravity,
         hist_ptr=np.asarray(hist_ptr, dtype=IDX), hist_t=np.asarray(hist_t, float),
         hist_a=np.asarray(hist_a, float), groups=groups, materials=materials, mesh=mesh,
         n_cut=n_cut, spring_law=cat["law"].astype(IDX), law_params=law_params,

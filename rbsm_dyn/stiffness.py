@@ -140,10 +140,15 @@ def mass_matrix(model):
 
 def model_load(model):
     """Applied generalised load (N, 6) of a model: body_fext + m g, body_mext
-    (full amplitude of any load history)."""
+    (full amplitude of any load history); follower loads at their reference
+    direction R0·f (small strain: the load stiffness is left out)."""
     load = np.zeros((model.n_bodies, 6))
     load[:, :3] = model.body_fext + model.body_mass[:, None] * model.gravity[None, :]
     load[:, 3:] = model.body_mext
+    if len(model.body_ffol):
+        R0 = quat_matrix_np(model.body_quat0[:model.n_bodies])
+        load[:, :3] += np.einsum("nij,nj->ni", R0, model.body_ffol)
+        load[:, 3:] += np.einsum("nij,nj->ni", R0, model.body_mfol)
     return load
 
 

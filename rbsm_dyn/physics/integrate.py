@@ -13,6 +13,17 @@ z, rx, ry, rz in world axes): 0 free, 1 fixed, 2 prescribed velocity
 the velocity [m/s] or displacement [m]; `dof_hist` an amplitude table index
 (−1: constant 1).  Amplitude tables are piecewise linear (hist_ptr, hist_t,
 hist_a).
+
+Loads: `body_fext`, `body_mext` (N, 3) world force and moment about the
+centroid, fixed in space (dead); `body_ffol`, `body_mfol` (N, 3), or (0, 3)
+when there are none: follower loads, constant in the body's principal
+frame (world value R·f at the body's present rotation R: a load on a face of
+the rigid cell turns with it).  Both are scaled by the body's amplitude
+`body_load_hist`.  Work of a dead load: F_n · v_{n+1/2} dt, which sums to
+F · (x − x0) for a constant force; of a follower load: F_n · v̄_n dt with
+v̄_n = (v_{n−1/2} + v_{n+1/2})/2 (and M_n · ω̄_n dt), the kinetic energy the
+load gives a free body over the step: F_n · v_{n+1/2} dt would book
+|F|² dt²/2m too much each step when F turns (a first-order drift).
 """
 
 import numba as nb
@@ -131,8 +142,8 @@ def rotate_body(i, dt, inertia, body_quat, body_angmom, body_rot):
 def dynamic_body_pass(t, dt, body_wrench, body_support,
                       body_mass, body_inertia, body_pos, body_pos0, body_quat, body_quat0,
                       body_vel, body_angmom, body_rot, body_dq,
-                      body_fext, body_mext, body_load_hist, gravity, damping_alpha,
-                      dof_kind, dof_value, dof_hist, hist_ptr, hist_t, hist_a,
+                      body_fext, body_mext, body_ffol, body_mfol, body_load_hist, gravity,
+                      damping_alpha, dof_kind, dof_value, dof_hist, hist_ptr, hist_t, hist_a,
                       body_work, body_damp, body_reaction):
     """One leapfrog step of every body, from forces at time t to t + dt.
 
@@ -145,6 +156,7 @@ def dynamic_body_pass(t, dt, body_wrench, body_support,
     # (1 − c)/(1 + c) and dt/(1 + c): divisions out of the loop
     keep = (1.0 - c) / (1.0 + c)
     dt_c = dt / (1.0 + c)
+    follow = body_ffol.shape[0] > 0
     # by the parts of partition.py (bodies i·PARTS // n = p): the same chunks
     # as the spring pass's phase 0, so that a thread can keep its bodies
     for p in nb.prange(PARTS):
@@ -154,11 +166,16 @@ def dynamic_body_pass(t, dt, body_wrench, body_support,
             m = body_mass[i]
             dt_cm = dt_c / m
             amp = amplitude(body_load_hist[i], t, hist_ptr, hist_t, hist_a)
+            R = body_rot[i]                      # at t, as the spring forces
             work = 0.0
             damp = 0.0
             for k in range(3):
                 fext = amp * body_fext[i, k] + m * gravity[k]
-                f = g[k] + fext
+                ffol = 0.0
+                if follow:
+                    ffol = amp * (R[k, 0] * body_ffol[i, 0] + R[k, 1] * body_ffol[i, 1]
+                                  + R[k, 2] * body_ffol[i, 2])
+                f = g[k] + fext + ffol
                 v_old = body_vel[i, k]
                 kind = dof_kind[i, k]
                 if kind == FREE:
@@ -180,8 +197,8 @@ def dynamic_body_pass(t, dt, body_wrench, body_support,
                     r = m * (v_new - v_old) / dt - f
                     reaction = body_support[i, k] + r
                     work += r * v_new * dt
-                work += fext * v_new * dt
                 va = 0.5 * (v_old + v_new)
+                work += fext * v_new * dt + ffol * va * dt
                 damp += damping_alpha * m * va * va * dt
                 body_vel[i, k] = v_new
                 body_pos[i, k] += v_new * dt
@@ -189,20 +206,27 @@ def dynamic_body_pass(t, dt, body_wrench, body_support,
             # rotation: kick world L, constrain, free rotor
             L = body_angmom[i]
             inertia = body_inertia[i]
+            l0, l1, l2 = L[0], L[1], L[2]          # L at t − dt/2
             for k in range(3):
                 mext = amp * body_mext[i, k]
+                if follow:
+                    mext += amp * (R[k, 0] * body_mfol[i, 0] + R[k, 1] * body_mfol[i, 1]
+                                   + R[k, 2] * body_mfol[i, 2])
                 l_old = L[k]
                 L[k] = keep * l_old + dt_c * (g[3 + k] + mext)   # ((1 − c) L + dt T)/(1 + c)
-            constrain_rotation(i, dof_kind, body_rot[i], inertia, L)
+            constrain_rotation(i, dof_kind, R, inertia, L)
             if damping_alpha > 0.0 or amp != 0.0:
                 # ω at the half step, for damping dissipation and moment work
-                R = body_rot[i]
+                # (world M·ω = M·R ω_b; a follower moment: m_b·ω_b)
                 for k in range(3):
                     lb = R[0, k] * L[0] + R[1, k] * L[1] + R[2, k] * L[2]
                     wb = lb / inertia[k]
                     damp += damping_alpha * lb * wb * dt
                     for r in range(3):
                         work += amp * body_mext[i, r] * R[r, k] * wb * dt
+                    if follow:
+                        wb_old = (R[0, k] * l0 + R[1, k] * l1 + R[2, k] * l2) / inertia[k]
+                        work += amp * body_mfol[i, k] * 0.5 * (wb_old + wb) * dt
             rotate_body(i, dt, inertia, body_quat, body_angmom, body_rot)
             refresh_rotation(i, body_quat, body_quat0, body_rot, body_dq)
             body_work[i] += work
@@ -217,8 +241,8 @@ def run_dynamic(n_steps, step0, dt, inelastic,
                 phase_ptr, group_ptr, body_wrench, body_support, spring_force,
                 body_mass, body_inertia, body_pos, body_pos0, body_quat, body_quat0,
                 body_vel, body_angmom, body_rot, body_dq,
-                body_fext, body_mext, body_load_hist, gravity, damping_alpha,
-                dof_kind, dof_value, dof_hist, hist_ptr, hist_t, hist_a,
+                body_fext, body_mext, body_ffol, body_mfol, body_load_hist, gravity,
+                damping_alpha, dof_kind, dof_value, dof_hist, hist_ptr, hist_t, hist_a,
                 body_work, body_damp, body_reaction, poisson_on,
                 cell_slot_ptr, slot_cell, slot_rev, slot_g, cell_c0, slot_s0, slot_s1,
                 cell_lv, aux_g, aux_p):
@@ -249,27 +273,35 @@ def run_dynamic(n_steps, step0, dt, inelastic,
         dynamic_body_pass(t, dt, body_wrench, body_support,
                           body_mass, body_inertia, body_pos, body_pos0, body_quat,
                           body_quat0, body_vel, body_angmom, body_rot, body_dq,
-                          body_fext, body_mext, body_load_hist, gravity, damping_alpha,
-                          dof_kind, dof_value, dof_hist, hist_ptr, hist_t, hist_a,
-                          body_work, body_damp, body_reaction)
+                          body_fext, body_mext, body_ffol, body_mfol, body_load_hist, gravity,
+                          damping_alpha, dof_kind, dof_value, dof_hist, hist_ptr, hist_t,
+                          hist_a, body_work, body_damp, body_reaction)
     return step0 + n_steps
 
 
 @nb.njit(parallel=True, **JIT)
 def synchronized_momenta(t, dt, body_wrench, body_support, body_mass, body_vel,
-                         body_angmom, body_fext, body_mext, body_load_hist, gravity,
-                         dof_kind, dof_value, dof_hist, hist_ptr, hist_t, hist_a,
-                         out_vel, out_angmom, out_reaction):
+                         body_angmom, body_rot, body_fext, body_mext, body_ffol, body_mfol,
+                         body_load_hist, gravity, dof_kind, dof_value, dof_hist, hist_ptr,
+                         hist_t, hist_a, out_vel, out_angmom, out_reaction):
     """Velocity and world angular momentum at the whole step t (half kick
     from t − dt/2 with the forces at t; output steps only), and the force
     of supports and constraints on each body at t."""
+    follow = body_ffol.shape[0] > 0
     for i in nb.prange(body_mass.shape[0]):
         g = body_wrench[i]
         sup = body_support[i]
         m = body_mass[i]
+        R = body_rot[i]
         amp = amplitude(body_load_hist[i], t, hist_ptr, hist_t, hist_a)
         for k in range(3):
             f = g[k] + amp * body_fext[i, k] + m * gravity[k]
+            mext = amp * body_mext[i, k]
+            if follow:
+                f += amp * (R[k, 0] * body_ffol[i, 0] + R[k, 1] * body_ffol[i, 1]
+                            + R[k, 2] * body_ffol[i, 2])
+                mext += amp * (R[k, 0] * body_mfol[i, 0] + R[k, 1] * body_mfol[i, 1]
+                               + R[k, 2] * body_mfol[i, 2])
             kind = dof_kind[i, k]
             if kind == FREE:
                 out_vel[i, k] = body_vel[i, k] + 0.5 * dt * f / m
@@ -285,4 +317,4 @@ def synchronized_momenta(t, dt, body_wrench, body_support, body_mass, body_vel,
                 out_reaction[i, k] = sup[k] - f
             fixed_rot = dof_kind[i, 3 + k] == FIXED
             out_angmom[i, k] = 0.0 if fixed_rot else (
-                body_angmom[i, k] + 0.5 * dt * (g[3 + k] + amp * body_mext[i, k]))
+                body_angmom[i, k] + 0.5 * dt * (g[3 + k] + mext))

@@ -85,7 +85,8 @@ def advance(model, state, n_steps, damping_alpha=0.0):
         state.body_wrench, state.body_support, state.spring_force,
         m.body_mass, m.body_inertia, state.body_pos, m.body_pos0, state.body_quat,
         m.body_quat0, state.body_vel, state.body_angmom, state.body_rot, state.body_dq,
-        m.body_fext, m.body_mext, m.body_load_hist, m.gravity, damping_alpha,
+        m.body_fext, m.body_mext, m.body_ffol, m.body_mfol, m.body_load_hist, m.gravity,
+        damping_alpha,
         m.dof_kind, m.dof_value, m.dof_hist, m.hist_ptr, m.hist_t, m.hist_a,
         state.body_work, state.body_damp, state.body_reaction, m.poisson_on,
         *poisson_args(m, state))
@@ -99,10 +100,10 @@ def synchronize(model, state):
     vel = np.empty((n, 3))
     ang = np.empty((n, 3))
     synchronized_momenta(state.time, state.dt, state.body_wrench, state.body_support,
-                         m.body_mass, state.body_vel, state.body_angmom, m.body_fext,
-                         m.body_mext, m.body_load_hist, m.gravity, m.dof_kind, m.dof_value,
-                         m.dof_hist, m.hist_ptr, m.hist_t, m.hist_a, vel, ang,
-                         state.body_reaction)
+                         m.body_mass, state.body_vel, state.body_angmom, state.body_rot,
+                         m.body_fext, m.body_mext, m.body_ffol, m.body_mfol, m.body_load_hist,
+                         m.gravity, m.dof_kind, m.dof_value, m.dof_hist, m.hist_ptr, m.hist_t,
+                         m.hist_a, vel, ang, state.body_reaction)
     return vel, ang
 
 
@@ -117,6 +118,10 @@ def start_half_step(model, state):
     state.dt = dt
     state.body_vel[:-1] = vel
     state.body_angmom[:-1] = ang
+    if len(model.body_ffol):
+        # the follower work booked from here on starts with the half step
+        # before t = 0 (external_work): take it off
+        state.body_work -= follower_half_step_work(model, state)
 
 
 def load_amplitude(model, t):
@@ -128,8 +133,30 @@ def load_amplitude(model, t):
 def external_work(model, state, w_steps):
     """Work of loads, gravity and constraints since t = 0 [J], accumulated
     per step as f_n · v_{n+1/2} dt (for a constant force such as gravity this
-    is exactly f · (x − x0), since x_{n+1} − x_n = v_{n+1/2} dt)."""
-    return float(np.sum(w_steps))
+    is exactly f · (x − x0), since x_{n+1} − x_n = v_{n+1/2} dt).
+
+    Follower loads are booked f_n · v̄_n dt, v̄_n the mean of the half-step
+    velocities (physics/integrate.py): with the last half step ½ f_N ·
+    v_{N−1/2} dt added here (and the one before t = 0 taken off by
+    start_half_step), their work is the trapezoidal rule of ∫ f · dx
+    (second order, and the same as a dead load's while f does not turn)."""
+    w = float(np.sum(w_steps))
+    if len(model.body_ffol):
+        w += float(np.sum(follower_half_step_work(model, state)))
+    return w
+
+
+def follower_half_step_work(model, state):
+    """½ dt (f · v + m_b · ω_b) per body (N,) [J] of the follower loads at
+    the present time, with the half-step velocities v, ω before it."""
+    m = model
+    n = m.n_bodies
+    amp = load_amplitude(m, state.time)
+    R = state.body_rot[:n]
+    f = np.einsum("nij,nj->ni", R, m.body_ffol)
+    w_b = np.einsum("nji,nj->ni", R, state.body_angmom[:n]) / m.body_inertia  # Rᵀ L / I
+    return 0.5 * state.dt * amp * (np.sum(f * state.body_vel[:n], axis=1)
+                                   + np.sum(m.body_mfol * w_b, axis=1))
 
 
 def run(case, model, recorder, *, max_steps=None, progress=None, chunk_steps=None,

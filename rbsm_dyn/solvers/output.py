@@ -337,6 +337,9 @@ class Recorder:
                 v = vel[ids]
             elif p.quantity == "force":
                 v = amp_load[ids, None] * m.body_fext[ids] + m.body_mass[ids, None] * m.gravity
+                if len(m.body_ffol):      # follower loads: R·f at the present rotation
+                    v = v + amp_load[ids, None] * np.einsum("nij,nj->ni", state.body_rot[ids],
+                                                             m.body_ffol[ids])
             else:
                 v = state.body_reaction[ids]
             comp = v[:, "xyz".index(p.component)] if p.component in "xyz" else np.linalg.norm(v, axis=1)
