@@ -468,11 +468,7 @@ def build_model(case, mesh=None):
             continue
         key = "face" if item.face is not None else "surface"
         name = item.face if item.face is not None else item.surface
-        if case.domain.kind() == "box":
-            ids = (FACES.index(name),)
-        else:
-            from .case import domain_solid
-            ids = domain_solid(case).surface_ids(name)
+        ids = surface_ids(case, mesh, name)
         if seen & set(ids):
             raise case.error(("boundary", j, key), f"{key} {name} is supported twice")
         seen |= set(ids)
