@@ -233,6 +233,11 @@ SCHEMA_KEYS = [
     "mode", "end_time", "dt", "dt_safety", "damping", "alpha", "load_steps", "tolerance",
     "max_iterations", "relaxation", "damping_factor", "predictor", "threads", "modes",
     "file", "interval", "fields", "probes", "quantity", "component", "reduce",
+    "cylinder", "sphere", "prism", "union", "difference", "intersection", "base", "axis",
+    "radius", "center", "polygon", "holes", "from", "to", "scale", "surfaces", "surface",
+    "chord", "pressure", "traction", "follower", "breakable", "law", "values",
+    "shear_strength", "shear_fracture_energy", "groups", "points", "direction",
+    "cell_stress", "angle",
     "yeild", "Young", "end-time", "", "all", "x", "steel", "tip",
 ]
 WORDS = ["", " ", "abc", "all", "tip", "root", "steel", "glass", "nope", "xmin", "zmax",
