@@ -110,6 +110,11 @@ def main(argv=None):
     if threads:
         numba.set_num_threads(min(int(threads), numba.config.NUMBA_NUM_THREADS))
     from .model import build_model
+    cells = _cell_estimate(case)
+    if cells > BUILD_NOTICE_CELLS and not getattr(args, "quiet", False):
+        # a build of 10⁵ cells takes tens of seconds: say what is going on
+        print(f"rbsm_dyn: building about {cells:.3g} cells "
+              f"({case.mesh.kind}, domain {case.domain.kind()})...", file=sys.stderr, flush=True)
     try:
         model = build_model(case)
     except CaseError as exc:
@@ -129,6 +134,24 @@ def main(argv=None):
         print(f"rbsm_dyn: {problem}", file=sys.stderr)
         return 2
     return _run(case, model, args, threads or numba.get_num_threads())
+
+
+#: builds of more cells than this announce themselves on stderr
+BUILD_NOTICE_CELLS = 2.0e4
+
+
+def _cell_estimate(case):
+    """Cells the mesh will have, roughly (volume / size³ or the blocks)."""
+    import math
+    m = case.mesh
+    if m.kind == "blocks":
+        return float(math.prod(m.divisions))
+    if case.domain.kind() == "box":
+        (x0, y0, z0), (x1, y1, z1) = case.domain.box
+        volume = (x1 - x0) * (y1 - y0) * (z1 - z0)
+    else:
+        volume = case.domain._solid.volume if case.domain._solid is not None else 0.0
+    return volume / m.size ** 3
 
 
 def _output_problem(case, args, case_path):

@@ -155,3 +155,21 @@ def test_an_stl_of_a_primitive_gives_the_primitives_mesh(tmp_path):
     assert a.n_cells == b.n_cells and a.n_faces == b.n_faces
     np.testing.assert_allclose(b.cell_volume, a.cell_volume, rtol=1e-9)
     np.testing.assert_array_equal(b.face_cells, a.face_cells)
+
+
+def test_a_large_build_announces_itself(tmp_path, capsys):
+    """A build of more than 2·10⁴ cells says so on stderr (it takes seconds
+    to minutes); --quiet keeps it silent."""
+    from rbsm_dyn.__main__ import main
+    path = tmp_path / "blocks.yaml"
+    path.write_text(textwrap.dedent("""
+        name: blocks
+        domain: {box: [[0, 0, 0], [1, 1, 1]]}
+        mesh: {kind: blocks, divisions: [30, 30, 30]}
+        materials: {c: {density: 2400, young: 3.0e10, poisson: 0.0}}
+        solver: {mode: dynamic, end_time: 1.0e-6}
+        """))
+    assert main(["check", str(path)]) == 0
+    assert "building about 2.7e+04 cells (blocks, domain box)" in capsys.readouterr().err
+    assert main(["check", str(path), "--quiet"]) == 0
+    assert "building" not in capsys.readouterr().err
