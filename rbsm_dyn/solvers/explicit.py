@@ -125,9 +125,14 @@ def start_half_step(model, state):
 
 
 def load_amplitude(model, t):
+    """Amplitude of each body's load at time t: evaluated once per distinct
+    history (a few), then spread over the bodies (no loop over bodies)."""
     from ..physics.integrate import amplitude
-    return np.array([amplitude(h, t, model.hist_ptr, model.hist_t, model.hist_a)
-                     for h in model.body_load_hist]) if len(model.body_load_hist) else np.zeros(0)
+    if not len(model.body_load_hist):
+        return np.zeros(0)
+    hist, body = np.unique(model.body_load_hist, return_inverse=True)
+    amp = np.array([amplitude(h, t, model.hist_ptr, model.hist_t, model.hist_a) for h in hist])
+    return amp[body.reshape(-1)]
 
 
 def external_work(model, state, w_steps):
