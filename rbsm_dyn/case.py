@@ -277,15 +277,19 @@ class GroupFix(_Node):
 
 
 class GroupVelocity(_Node):
-    """``{group: g, velocity: [vx, vy, vz], history}``; None = free component."""
-    group: str
+    """``{group: g, velocity: [vx, vy, vz], history}``; None = free component.
+    ``surface: name`` instead of ``group``: the cells with a face on it."""
+    group: Optional[str] = None
+    surface: Optional[str] = None
     velocity: Vec3Free
     history: Optional[History] = None
 
 
 class GroupDisplacement(_Node):
-    """``{group: g, displacement: [ux, uy, uz], history}``; None = free."""
-    group: str
+    """``{group: g, displacement: [ux, uy, uz], history}``; None = free.
+    ``surface: name`` instead of ``group``: the cells with a face on it."""
+    group: Optional[str] = None
+    surface: Optional[str] = None
     displacement: Vec3Free
     history: Optional[History] = None
 
@@ -425,8 +429,9 @@ def _form_of(forms: dict[str, str]):
     return pick
 
 
-_BOUNDARY_FORMS = ("{face, fix}, {surface, fix}, {group, fix}, {group, velocity[, history]}, "
-                   "{group, displacement[, history]}")
+_BOUNDARY_FORMS = ("{face, fix}, {surface, fix}, {group, fix}, "
+                   "{group|surface, velocity[, history]}, "
+                   "{group|surface, displacement[, history]}")
 _LOAD_FORMS = ("{group, force[, moment][, history]}, {surface, pressure[, history]}, "
                "{surface, traction[, history]}, {gravity}")
 
@@ -435,9 +440,9 @@ BoundaryItem = Annotated[
           Annotated[GroupFix, Tag("GroupFix")],
           Annotated[GroupVelocity, Tag("GroupVelocity")],
           Annotated[GroupDisplacement, Tag("GroupDisplacement")]],
-    Discriminator(_form_of({"face": "FaceSupport", "surface": "FaceSupport", "fix": "GroupFix",
-                            "velocity": "GroupVelocity",
-                            "displacement": "GroupDisplacement"}),
+    Discriminator(_form_of({"velocity": "GroupVelocity", "displacement": "GroupDisplacement",
+                            "face": "FaceSupport", "surface": "FaceSupport",
+                            "fix": "GroupFix"}),
                   custom_error_type="form",
                   custom_error_message=f"expected one of {_BOUNDARY_FORMS}")]
 LoadItem = Annotated[
@@ -1080,8 +1085,25 @@ def _check(case: Case) -> None:
             raise err(path + ("material",), f"unknown material {g.material!r} "
                       f"(defined: {', '.join(case.materials)})")
 
+    def check_surface(name, path):
+        if kind != "box":
+            from .geometry import GeometryError
+            try:
+                domain_solid(case).surface_ids(name)
+            except GeometryError as exc:      # unknown or ambiguous name
+                raise err(path, exc.message) from None
+        elif name not in FACES:
+            raise err(path, f"unknown surface {name!r} of the box "
+                      f"(its surfaces: {', '.join(FACES)})")
+
     for i, b in enumerate(case.boundary):
         path = ("boundary", i)
+        if isinstance(b, (GroupVelocity, GroupDisplacement)):
+            if (b.group is None) == (b.surface is None):
+                raise err(path, "give group (bodies) or surface (the cells with a face on a "
+                          "named surface), not both")
+            if b.surface is not None:
+                check_surface(b.surface, path + ("surface",))
         if isinstance(b, FaceSupport):
             if (b.face is None) == (b.surface is None):
                 raise err(path, "give face (a box side) or surface (a named surface), not both")
@@ -1097,7 +1119,7 @@ def _check(case: Case) -> None:
             elif b.surface is not None and b.surface not in FACES:
                 raise err(path + ("surface",), f"unknown surface {b.surface!r} of the box "
                           f"(its surfaces: {', '.join(FACES)})")
-        if not isinstance(b, FaceSupport):
+        if not isinstance(b, FaceSupport) and b.group is not None:
             check_group(b.group, path + ("group",))
         if isinstance(b, (FaceSupport, GroupFix)):
             if not b.fix:

@@ -464,7 +464,7 @@ def build_model(case, mesh=None):
     sup = []
     seen = set()
     for j, item in enumerate(case.boundary or []):
-        if not hasattr(item, "surface"):
+        if not hasattr(item, "face"):         # supports only
             continue
         key = "face" if item.face is not None else "surface"
         name = item.face if item.face is not None else item.surface
@@ -557,9 +557,14 @@ def build_model(case, mesh=None):
         dof_item[ids, c] = j
 
     for j, item in enumerate(case.boundary or []):
-        if hasattr(item, "surface"):          # a support on a face or surface
+        if hasattr(item, "face"):             # a support on a face or surface
             continue
-        ids = groups[item.group]
+        if getattr(item, "surface", None) is not None:
+            # the cells with a boundary face on the surface
+            on = np.isin(mesh.bface_side, surface_ids(case, mesh, item.surface))
+            ids = np.unique(mesh.bface_cell[on]).astype(IDX)
+        else:
+            ids = groups[item.group]
         if getattr(item, "fix", None) is not None:
             fix = COMPONENTS if item.fix == "all" else tuple(item.fix)
             for c in fix:
