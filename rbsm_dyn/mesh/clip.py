@@ -37,7 +37,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ._core import assemble
+from ._core import _gather, assemble
 
 __all__ = ["clip_to_solid", "solid_facets"]
 
@@ -168,7 +168,7 @@ def clip_to_solid(mesh, vertices, triangles, tri_surface, surface_names, *, min_
     # the polygons (and their vertices) of the cells that go through the boolean
     npoly = np.diff(mesh.cell_poly_ptr)
     cut_poly = np.repeat(~interior, npoly)
-    sp_ptr, sp_vid = _loops(mesh.poly_ptr, mesh.poly_vertex, np.nonzero(cut_poly)[0],
+    sp_ptr, sp_vid = _gather(mesh.poly_ptr, mesh.poly_vertex, np.nonzero(cut_poly)[0],
                             np.zeros(int(cut_poly.sum()), bool))
     ctri, ctri_poly = _fan_triangles(sp_ptr, sp_vid)
     cells = m3.Manifold(m3.Mesh64(vert_properties=np.array(mesh.vertices, np.float64),
@@ -250,7 +250,7 @@ def clip_to_solid(mesh, vertices, triangles, tri_surface, surface_names, *, min_
     if len(inner):
         # the interior cells' own polygons, as loops of their pieces
         ipoly = np.nonzero(~cut_poly)[0]
-        i_ptr, i_vid = _loops(mesh.poly_ptr, mesh.poly_vertex, ipoly, np.zeros(len(ipoly), bool))
+        i_ptr, i_vid = _gather(mesh.poly_ptr, mesh.poly_vertex, ipoly, np.zeros(len(ipoly), bool))
         bf = np.concatenate([bf, i_vid + V])
         ptr = np.concatenate([ptr, ptr[-1] + i_ptr[1:]])
         lfid = np.concatenate([lfid, pfid[ipoly]])
@@ -346,9 +346,9 @@ def clip_to_solid(mesh, vertices, triangles, tri_surface, surface_names, *, min_
     flip = (ra > rb)[keep]
     # internal polygons, counter-clockwise about the normal from a to b
     fl = f_loop[keep]
-    f_ptr, f_vid = _loops(ptr, bf, fl, flip)
+    f_ptr, f_vid = _gather(ptr, bf, fl, flip)
     f_normal = np.where(flip[:, None], -lnormal[fl], lnormal[fl])
-    b_ptr, b_vid = _loops(ptr, bf, b_loop, np.zeros(len(b_loop), bool))
+    b_ptr, b_vid = _gather(ptr, bf, b_loop, np.zeros(len(b_loop), bool))
     # drop the vertices no polygon uses: ids into the used ones
     used = np.unique(np.concatenate([f_vid, b_vid]))
     remap = np.full(V, -1, np.int64)
@@ -406,12 +406,11 @@ def _interior_cells(mesh, vertices, triangles, contains):
     n = np.maximum(np.ceil((hi - lo) / h).astype(np.int64), 1)
     h = (hi - lo) / n
 
-    def index(x, up):
-        k = np.floor((x - lo) / h).astype(np.int64)
-        return np.clip(k, 0, n - 1)
+    def index(x):
+        return np.clip(np.floor((x - lo) / h).astype(np.int64), 0, n - 1)
 
     tv = v[t]
-    t0, t1 = index(tv.min(axis=1), False), index(tv.max(axis=1), True)
+    t0, t1 = index(tv.min(axis=1)), index(tv.max(axis=1))
     ext = t1 - t0 + 1
     cnt = ext.prod(axis=1)
     if cnt.sum() > 50 * n.prod():      # huge slanted triangles: no shortcut
@@ -430,7 +429,7 @@ def _interior_cells(mesh, vertices, triangles, contains):
     cmax = np.full((mesh.n_cells, 3), -np.inf)
     np.minimum.at(cmin, cv, mesh.vertices)
     np.maximum.at(cmax, cv, mesh.vertices)
-    a, b = index(cmin, False), index(cmax, True) + 1
+    a, b = index(cmin), index(cmax) + 1
     hits = (sat[b[:, 0], b[:, 1], b[:, 2]] - sat[a[:, 0], b[:, 1], b[:, 2]]
             - sat[b[:, 0], a[:, 1], b[:, 2]] - sat[b[:, 0], b[:, 1], a[:, 2]]
             + sat[a[:, 0], a[:, 1], b[:, 2]] + sat[a[:, 0], b[:, 1], a[:, 2]]
@@ -457,9 +456,3 @@ def _piece_volumes(ptr, pxyz, lpiece, n):
     a, b, c = pxyz[first], pxyz[k], pxyz[nxt]
     v6 = np.einsum("ij,ij->i", a, np.cross(b, c))
     return np.bincount(np.repeat(lpiece, cnt), v6, minlength=n) / 6.0
-
-
-def _loops(ptr, vid, sel, rev):
-    """CSR of the loops ``sel`` (each reversed where ``rev``)."""
-    from ._core import _gather
-    return _gather(ptr, vid, sel, rev)
