@@ -113,8 +113,10 @@ def main(argv=None):
     cells = _cell_estimate(case)
     if cells > BUILD_NOTICE_CELLS and not getattr(args, "quiet", False):
         # a build of 10⁵ cells takes tens of seconds: say what is going on
-        print(f"rbsm_dyn: building about {cells:.3g} cells "
-              f"({case.mesh.kind}, domain {case.domain.kind()})...", file=sys.stderr, flush=True)
+        what = (f"{case.mesh.kind}, domain {case.domain.kind()}" if not case.parts
+                else f"{len(case.parts)} parts")
+        print(f"rbsm_dyn: building about {cells:.3g} cells ({what})...", file=sys.stderr,
+              flush=True)
     try:
         model = build_model(case)
     except CaseError as exc:
@@ -143,15 +145,20 @@ BUILD_NOTICE_CELLS = 2.0e4
 def _cell_estimate(case):
     """Cells the mesh will have, roughly (volume / size³ or the blocks)."""
     import math
-    m = case.mesh
-    if m.kind == "blocks":
-        return float(math.prod(m.divisions))
-    if case.domain.kind() == "box":
-        (x0, y0, z0), (x1, y1, z1) = case.domain.box
-        volume = (x1 - x0) * (y1 - y0) * (z1 - z0)
-    else:
-        volume = case.domain._solid.volume if case.domain._solid is not None else 0.0
-    return volume / m.size ** 3
+    from .case import scene_parts
+    total = 0.0
+    for part in scene_parts(case):
+        m, g = part.mesh, part.geometry
+        if m.kind == "rigid":
+            total += 1.0
+        elif m.kind == "blocks":
+            total += float(math.prod(m.divisions))
+        elif g.kind() == "box":
+            (x0, y0, z0), (x1, y1, z1) = g.box
+            total += (x1 - x0) * (y1 - y0) * (z1 - z0) / m.size ** 3
+        else:
+            total += (g._solid.volume if g._solid is not None else 0.0) / m.size ** 3
+    return total
 
 
 def _output_problem(case, args, case_path):
@@ -220,8 +227,23 @@ def _selections(case, model):
     import numpy as np
     mesh = model.mesh
     v = model.body_volume
-    out = [f"domain {case.domain.kind()}: {model.n_bodies} bodies, volume {v.sum():.6g} m³, "
-           f"smallest body {v.min() / v.mean():.3f} of the mean"]
+    if case.parts:
+        out = [f"scene of {len(case.parts)} parts: {model.n_bodies} bodies, volume "
+               f"{v.sum():.6g} m³"]
+        part = mesh.cell_part
+        for k, (name, p) in enumerate(case.parts.items()):
+            vk = v[part == k]
+            out.append(f"part {name} ({p.mesh.kind}, {p.material}): {len(vk)} bodies, volume "
+                       f"{vk.sum():.6g} m³" + (f", smallest body {vk.min() / vk.mean():.3f} of "
+                                               f"the mean" if len(vk) > 1 else ""))
+        fi = mesh.face_interface
+        for i, it in enumerate(case.interfaces):
+            on = fi == i
+            out.append(f"interface {it.parts[0]}–{it.parts[1]} ({it.law}): {int(on.sum())} "
+                       f"faces, {mesh.face_area[on].sum():.6g} m²")
+    else:
+        out = [f"domain {case.domain.kind()}: {model.n_bodies} bodies, volume "
+               f"{v.sum():.6g} m³, smallest body {v.min() / v.mean():.3f} of the mean"]
     if mesh is not None:
         cnt = np.bincount(mesh.bface_side, minlength=len(mesh.surface_names))
         area = np.bincount(mesh.bface_side, mesh.bface_area, minlength=len(mesh.surface_names))

@@ -24,7 +24,7 @@ import math
 import re
 import warnings
 from pathlib import Path
-from typing import Annotated, Any, Literal, Optional, Union, get_args
+from typing import Annotated, Any, Literal, NamedTuple, Optional, Union, get_args
 
 from pydantic import (BaseModel, BeforeValidator, ConfigDict, Discriminator,
                       Field, PrivateAttr, Tag, ValidationError, model_validator)
@@ -212,8 +212,10 @@ class Domain(_Node):
 
 
 class Mesh(_Node):
-    """``kind: voronoi`` (size, seed, min_spacing) or ``kind: blocks`` (divisions)."""
-    kind: Literal["voronoi", "blocks"]
+    """``kind: voronoi`` (size, seed, min_spacing), ``kind: blocks``
+    (divisions) or, for a part only, ``kind: rigid`` (one body; ``size``
+    optional: the length the chord of its curved faces refers to)."""
+    kind: Literal["voronoi", "blocks", "rigid"]
     size: Optional[float] = Field(default=None, gt=0)
     seed: int = Field(default=0, ge=0)
     min_spacing: float = Field(default=0.5, ge=0, le=0.9)
@@ -221,6 +223,26 @@ class Mesh(_Node):
                                   _length(3, "[nx, ny, nz]")]] = None
     spring_points: Literal["moment", "centroid", "three"] = "moment"
     chord: float = Field(default=0.05, gt=0, le=0.5)   # faceting: chord error / cell size
+
+
+class Part(_Node):
+    """One part of a scene (DESIGN.md §6): ``geometry`` (a box or a geometry
+    node, as ``domain``), ``mesh`` (voronoi, blocks or rigid) and the name
+    of its ``material``."""
+    geometry: Domain
+    mesh: Mesh
+    material: str
+
+
+class Interface(_Node):
+    """How two touching parts are joined over their shared faces:
+    ``law: bonded`` (springs with the law of ``material``, default the
+    weaker of the two parts' laws) or ``law: contact`` (compression only,
+    Coulomb ``friction`` μ, default 0: the law of a broken face)."""
+    parts: Annotated[list[str], _length(2, "[part_a, part_b]")]
+    law: Literal["bonded", "contact"]
+    material: Optional[str] = None
+    friction: Optional[float] = Field(default=None, ge=0)
 
 
 class Yield(_Node):
@@ -469,8 +491,10 @@ class Case(_Node):
     name: str = Field(min_length=1)
     description: Optional[str] = None
     units: Literal["SI", "mm-N-s"] = "SI"
-    domain: Domain
-    mesh: Mesh
+    domain: Optional[Domain] = None
+    mesh: Optional[Mesh] = None
+    parts: dict[str, Part] = {}
+    interfaces: list[Interface] = []
     materials: dict[str, Material]
     groups: dict[str, Group] = {}
     boundary: list[BoundaryItem] = []
@@ -897,38 +921,193 @@ def _numbers(node: Any, path: KeyPath):
         yield path, node
 
 
-def domain_solid(case: Case, cell_size: Optional[float] = None):
-    """The domain's geometry as an rbsm_dyn.geometry Solid (built once, kept
-    on the case), faceted to the chord ``mesh.chord`` × the cell size (the
-    Voronoi size, or the blocks' smallest edge).  GeometryError → CaseError
-    at its key path under ``domain``."""
-    d = case.domain
+class ScenePart(NamedTuple):
+    """A part of the scene as the mesher sees it: the one-part shorthand
+    ``domain`` + ``mesh`` is the part named "domain" (DESIGN.md §6)."""
+    name: str
+    geometry: Domain
+    mesh: Mesh
+    material: Optional[str]
+    path: KeyPath               # of the geometry: ("domain",) or ("parts", name, "geometry")
+    mesh_path: KeyPath          # ("mesh",) or ("parts", name, "mesh")
+
+
+def scene_parts(case: Case) -> list[ScenePart]:
+    """The parts of a case in order (the shorthand: one part)."""
+    if case.parts:
+        return [ScenePart(n, p.geometry, p.mesh, p.material, ("parts", n, "geometry"),
+                          ("parts", n, "mesh")) for n, p in case.parts.items()]
+    return [ScenePart("domain", case.domain, case.mesh, None, ("domain",), ("mesh",))]
+
+
+def _box_size(box, divisions):
+    return min(float(box[1][i] - box[0][i]) / divisions[i] for i in range(3))
+
+
+def part_cell_size(case: Case, part: ScenePart) -> float:
+    """The length the chord of a part's curved faces refers to: the Voronoi
+    size, the blocks' smallest edge, or for a rigid part its ``mesh.size``,
+    else the smallest cell of the other parts."""
+    m = part.mesh
+    if m.kind == "voronoi" and m.size is not None:
+        return m.size
+    if m.kind == "blocks" and m.divisions is not None:
+        if part.geometry.kind() == "box":
+            return _box_size(part.geometry.box, m.divisions)
+        from .geometry import GeometryError, build_solid
+        try:
+            lo, hi = build_solid(part.geometry.spec(), chord=1e9, base_dir=_case_dir(case)).bounds
+        except GeometryError as exc:
+            raise case.error(part.path + tuple(exc.path), exc.message) from None
+        return _box_size((lo, hi), m.divisions)
+    if m.size is not None:
+        return m.size
+    others = [part_cell_size(case, p) for p in scene_parts(case) if p.mesh.kind != "rigid"]
+    return min(others) if others else 1.0
+
+
+def part_solid(case: Case, part: ScenePart, cell_size: Optional[float] = None):
+    """A part's geometry as an rbsm_dyn.geometry Solid (built once, kept on
+    the geometry node), faceted to the chord ``mesh.chord`` × the part's
+    cell size (part_cell_size).  GeometryError → CaseError at its key path
+    under the part's geometry."""
+    d = part.geometry
     if d._solid is not None:
         return d._solid
     from .geometry import GeometryError, build_solid
-    spec = d.spec()
-    m = case.mesh
     if cell_size is None:
-        if m.kind == "voronoi" and m.size is not None:
-            cell_size = m.size
-        elif m.divisions is not None:
-            # the blocks' edge: the bounds of a coarse faceting first
-            try:
-                lo, hi = build_solid(spec, chord=1e9, base_dir=_case_dir(case)).bounds
-            except GeometryError as exc:
-                raise case.error(("domain",) + tuple(exc.path), exc.message) from None
-            cell_size = min(float(hi[i] - lo[i]) / m.divisions[i] for i in range(3))
-    chord = m.chord * (cell_size if cell_size else 1.0)
+        cell_size = part_cell_size(case, part)
+    chord = part.mesh.chord * cell_size
     try:
-        d._solid = build_solid(spec, chord=chord, base_dir=_case_dir(case))
+        d._solid = build_solid(d.spec(), chord=chord, base_dir=_case_dir(case))
     except GeometryError as exc:
-        raise case.error(("domain",) + tuple(exc.path), exc.message) from None
+        raise case.error(part.path + tuple(exc.path), exc.message) from None
     return d._solid
+
+
+def domain_solid(case: Case, cell_size: Optional[float] = None):
+    """The one-part domain's Solid (part_solid of the shorthand's part)."""
+    return part_solid(case, scene_parts(case)[0], cell_size)
+
+
+def part_surface_names(case: Case, part: ScenePart) -> tuple:
+    """The names of a part's surfaces as its mesh carries them: a box cut
+    into cells: xmin ... zmax; else the solid's (rbsm_dyn.geometry)."""
+    if part.geometry.kind() == "box" and part.mesh.kind != "rigid":
+        return FACES
+    return part_solid(case, part).surface_names
+
+
+def surface_indices(case: Case, name: str) -> tuple:
+    """Indices into the scene mesh's surface_names of a named surface: for
+    one part, a name of the domain's (xmin ... zmax of a box, or the
+    geometry's naming rules); with parts, ``<part>.<surface>``.  Raises
+    ValueError with the reason when the name selects nothing."""
+    parts = scene_parts(case)
+    if not case.parts:
+        part, local = parts[0], name
+    else:
+        head, dot, local = name.partition(".")
+        found = [p for p in parts if p.name == head]
+        if not dot or not found:
+            raise ValueError(f"unknown surface {name!r}: with parts, a surface is "
+                             f"<part>.<surface> (parts: {', '.join(case.parts)})")
+        part = found[0]
+    offset = 0
+    for p in parts:
+        if p.name == part.name:
+            break
+        offset += len(part_surface_names(case, p))
+    if part.geometry.kind() == "box" and part.mesh.kind != "rigid":
+        if local not in FACES:
+            raise ValueError(f"unknown surface {local!r} of the box"
+                             + (f" of part {part.name}" if case.parts else "")
+                             + f" (its surfaces: {', '.join(FACES)})")
+        return (offset + FACES.index(local),)
+    from .geometry import GeometryError
+    try:
+        return tuple(offset + i for i in part_solid(case, part).surface_ids(local))
+    except GeometryError as exc:
+        raise ValueError(exc.message + (f" (part {part.name})" if case.parts else "")) from None
+
+
+def surface_part(case: Case, name: str) -> ScenePart:
+    """The part a surface name belongs to."""
+    if not case.parts:
+        return scene_parts(case)[0]
+    head = name.partition(".")[0]
+    return next(p for p in scene_parts(case) if p.name == head)
 
 
 def _case_dir(case: Case):
     f = case._source_file
     return Path(f).parent if f and not f.startswith("<") else Path.cwd()
+
+
+def _check_part(case: Case, part: ScenePart):
+    """Geometry and mesh of one part: (lower corner, upper corner, volume)."""
+    err = case.error
+    g, m, gp, mp = part.geometry, part.mesh, part.path, part.mesh_path
+    kind = g.kind()
+    if kind is None:
+        given = [k for k in ("box",) + GEOMETRY_KINDS if getattr(g, k) is not None]
+        raise err(gp, "give one geometry: box or one of " + ", ".join(GEOMETRY_KINDS)
+                  + (f" (got {', '.join(given)})" if given else ""))
+    if kind == "box":
+        for axis, name in enumerate("xyz"):
+            lo, hi = g.box[0][axis], g.box[1][axis]
+            if not hi > lo:
+                raise err(gp + ("box",), f"max must be > min along {name} "
+                                         f"(got {_show(lo)} .. {_show(hi)})")
+        for key in ("name", "scale", "surfaces"):
+            if g.given(key):
+                raise err(gp + (key,), "not used with box (the box's surfaces are "
+                          "xmin ... zmax)")
+    if kind == "box" and m.kind != "rigid":
+        (x0, y0, z0), (x1, y1, z1) = g.box
+        volume = (x1 - x0) * (y1 - y0) * (z1 - z0)
+    else:
+        solid = part_solid(case, part)
+        (x0, y0, z0), (x1, y1, z1) = solid.bounds
+        volume = solid.volume
+
+    def only(keys, why):
+        for key in keys:
+            if m.given(key):
+                raise err(mp + (key,), f"not used {why}")
+
+    if m.kind == "voronoi":
+        if m.size is None:
+            raise err(mp + ("size",), "required key missing (kind voronoi)")
+        only(["divisions"], "with kind voronoi")
+        cells = volume / m.size ** 3
+        if cells > MAX_CELLS:
+            raise err(mp + ("size",), f"too small: {cells:.3g} cells "
+                      f"(at most {MAX_CELLS:g}; check the units)")
+    elif m.kind == "blocks":
+        if m.divisions is None:
+            raise err(mp + ("divisions",), "required key missing (kind blocks)")
+        only(["size", "seed", "min_spacing"], "with kind blocks")
+        cells = math.prod(m.divisions)
+        if cells > MAX_CELLS:
+            raise err(mp + ("divisions",), f"too many cells: {cells} "
+                      f"(at most {MAX_CELLS:g})")
+    else:
+        only(["divisions", "seed", "min_spacing", "spring_points"], "with kind rigid "
+             "(one body)")
+    # Round-off: coordinates far from the origin leave too few digits for
+    # the cells (qhull fails beyond ~1e5 Voronoi cell sizes; blocks last longer).
+    if m.kind != "rigid":
+        if m.kind == "voronoi":
+            h, reach = m.size, FAR_CELLS_VORONOI
+        else:
+            h, reach = _box_size(((x0, y0, z0), (x1, y1, z1)), m.divisions), FAR_CELLS_BLOCKS
+        far = max(abs(c) for c in (x0, y0, z0, x1, y1, z1))
+        if far > reach * h:
+            raise err(gp + (kind,), f"too far from the origin for cells of {h:.3g}: "
+                      f"{far:.3g} away, at most {reach:g} cell sizes (the mesh would lose "
+                      "precision); move the domain nearer to the origin")
+    return (x0, y0, z0), (x1, y1, z1), volume
 
 
 def _check(case: Case) -> None:
@@ -938,12 +1117,12 @@ def _check(case: Case) -> None:
     # Numbers far outside any physical range are unit mistakes, and their
     # products (k/m, end_time/dt, h^5 rho) would overflow or underflow.
     for path, x in _numbers(case, ()):
-        if path == ("mesh", "seed"):
+        if path == ("mesh", "seed") or (path[:1] == ("parts",) and path[-2:] == ("mesh", "seed")):
             continue
         if x != 0 and not (1 / NUMBER_LIMIT <= abs(x) <= NUMBER_LIMIT):
             raise err(path, f"must be 0 or of magnitude between {1 / NUMBER_LIMIT:g} and "
                             f"{NUMBER_LIMIT:g} (got {_show(x)}; check the units)")
-    groups = set(case.groups) | {"all"}
+    groups = set(case.groups) | {"all"} | set(case.parts)
 
     def check_box(box, path, strict):
         for axis, name in enumerate("xyz"):
@@ -966,76 +1145,69 @@ def _check(case: Case) -> None:
                 raise err(path + (i,), "history times must increase "
                           f"(got {_show(hist[i][0])} after {_show(hist[i - 1][0])})")
 
-    def check_surface(name, path):
-        # a named surface of the domain (a box's: xmin ... zmax)
-        if kind == "box":
-            if name not in FACES:
-                raise err(path, f"unknown surface {name!r} of the box "
-                                f"(its surfaces: {', '.join(FACES)})")
-            return
-        from .geometry import GeometryError
-        try:
-            domain_solid(case).surface_ids(name)
-        except GeometryError as exc:      # unknown or ambiguous name
-            raise err(path, exc.message) from None
-
     def check_only(obj, keys, path, why):
         for key in keys:
             if obj.given(key):
                 raise err(path + (key,), f"not used {why}")
 
-    kind = case.domain.kind()
-    if kind is None:
-        given = [k for k in ("box",) + GEOMETRY_KINDS if getattr(case.domain, k) is not None]
-        raise err(("domain",), "give one geometry: box or one of " + ", ".join(GEOMETRY_KINDS)
-                  + (f" (got {', '.join(given)})" if given else ""))
-    if kind == "box":
-        check_box(case.domain.box, ("domain", "box"), strict=True)
-        for key in ("name", "scale", "surfaces"):
-            if case.domain.given(key):
-                raise err(("domain", key), "not used with box (the box's surfaces are "
-                          "xmin ... zmax)")
-        (x0, y0, z0), (x1, y1, z1) = case.domain.box
-        volume = (x1 - x0) * (y1 - y0) * (z1 - z0)
+    if case.parts:
+        for key in ("domain", "mesh"):
+            if getattr(case, key) is not None:
+                raise err((key,), "give parts, or domain + mesh (the one-part shorthand), "
+                                  "not both")
     else:
-        m = case.mesh
-        if m.kind == "voronoi" and m.size is not None:
-            h0 = m.size
+        for key in ("domain", "mesh"):
+            if getattr(case, key) is None:
+                raise err((key,), "required key missing (or give parts: a scene of several)")
+        if case.mesh.kind == "rigid":
+            raise err(("mesh", "kind"), "rigid is a part's mesh kind (parts: ...): the "
+                      "domain is cut into cells, voronoi or blocks")
+        if case.interfaces:
+            raise err(("interfaces",), "interfaces join parts: give parts")
+    lows, highs = [], []
+    for part in scene_parts(case):
+        x0y0z0, x1y1z1, _ = _check_part(case, part)
+        lows.append(x0y0z0)
+        highs.append(x1y1z1)
+    x0, y0, z0 = (min(c) for c in zip(*lows))
+    x1, y1, z1 = (max(c) for c in zip(*highs))
+    kind = scene_parts(case)[0].geometry.kind() if not case.parts else "parts"
+    for name, part in case.parts.items():
+        path = ("parts", name)
+        if name == "all" or "." in name or not name:
+            raise err(path, f"a part name must not be empty, 'all' or contain a dot (got "
+                            f"{name!r}: surfaces are named <part>.<surface>)")
+        if name in case.groups:
+            raise err(("groups", name), f"the name of part {name!r} (each part is a group "
+                      "of its bodies): rename the group")
+        if part.material not in case.materials:
+            raise err(path + ("material",), f"unknown material {part.material!r} "
+                      f"(defined: {', '.join(case.materials)})")
+    pairs = set()
+    for i, it in enumerate(case.interfaces):
+        path = ("interfaces", i)
+        for k, pn in enumerate(it.parts):
+            if pn not in case.parts:
+                raise err(path + ("parts", k), f"unknown part {pn!r} "
+                          f"(parts: {', '.join(case.parts)})")
+        if it.parts[0] == it.parts[1]:
+            raise err(path + ("parts", 1), "the same part twice (an interface joins two parts)")
+        pair = frozenset(it.parts)
+        if pair in pairs:
+            raise err(path + ("parts",), f"parts {it.parts[0]} and {it.parts[1]} are joined "
+                      "twice")
+        pairs.add(pair)
+        if all(case.parts[pn].mesh.kind == "rigid" for pn in it.parts):
+            raise err(path + ("parts",), "both parts are rigid: springs between two rigid "
+                      "bodies would be infinitely stiff (make one of them voronoi or blocks)")
+        if it.law == "bonded":
+            check_only(it, ["friction"], path, "with law bonded (the friction of a broken "
+                       "bonded face is its material's)")
+            if it.material is not None and it.material not in case.materials:
+                raise err(path + ("material",), f"unknown material {it.material!r} "
+                          f"(defined: {', '.join(case.materials)})")
         else:
-            h0 = None
-        solid = domain_solid(case, h0)
-        (x0, y0, z0), (x1, y1, z1) = solid.bounds
-        volume = solid.volume
-
-    m = case.mesh
-    if m.kind == "voronoi":
-        if m.size is None:
-            raise err(("mesh", "size"), "required key missing (kind voronoi)")
-        check_only(m, ["divisions"], ("mesh",), "with kind voronoi")
-        cells = volume / m.size ** 3
-        if cells > MAX_CELLS:
-            raise err(("mesh", "size"), f"too small: {cells:.3g} cells "
-                      f"(at most {MAX_CELLS:g}; check the units)")
-    else:
-        if m.divisions is None:
-            raise err(("mesh", "divisions"), "required key missing (kind blocks)")
-        check_only(m, ["size", "seed", "min_spacing"], ("mesh",), "with kind blocks")
-        cells = math.prod(m.divisions)
-        if cells > MAX_CELLS:
-            raise err(("mesh", "divisions"), f"too many cells: {cells} "
-                      f"(at most {MAX_CELLS:g})")
-    # Round-off: coordinates far from the origin leave too few digits for
-    # the cells (qhull fails beyond ~1e5 Voronoi cell sizes; blocks last longer).
-    if m.kind == "voronoi":
-        h, reach = m.size, FAR_CELLS_VORONOI
-    else:
-        h, reach = min((x1 - x0) / m.divisions[0], (y1 - y0) / m.divisions[1],
-                       (z1 - z0) / m.divisions[2]), FAR_CELLS_BLOCKS
-    far = max(abs(c) for c in (x0, y0, z0, x1, y1, z1))
-    if far > reach * h:
-        raise err(("domain", kind), f"too far from the origin for cells of {h:.3g}: "
-                  f"{far:.3g} away, at most {reach:g} cell sizes (the mesh would lose "
-                  "precision); move the domain nearer to the origin")
+            check_only(it, ["material"], path, "with law contact (give friction)")
 
     if not case.materials:
         raise err(("materials",), "at least one material is required")
@@ -1086,15 +1258,10 @@ def _check(case: Case) -> None:
                       f"(defined: {', '.join(case.materials)})")
 
     def check_surface(name, path):
-        if kind != "box":
-            from .geometry import GeometryError
-            try:
-                domain_solid(case).surface_ids(name)
-            except GeometryError as exc:      # unknown or ambiguous name
-                raise err(path, exc.message) from None
-        elif name not in FACES:
-            raise err(path, f"unknown surface {name!r} of the box "
-                      f"(its surfaces: {', '.join(FACES)})")
+        try:
+            surface_indices(case, name)
+        except ValueError as exc:       # unknown or ambiguous name
+            raise err(path, str(exc)) from None
 
     for i, b in enumerate(case.boundary):
         path = ("boundary", i)
@@ -1108,17 +1275,15 @@ def _check(case: Case) -> None:
             if (b.face is None) == (b.surface is None):
                 raise err(path, "give face (a box side) or surface (a named surface), not both")
             if b.face is not None and kind != "box":
-                raise err(path + ("face",), f"face selects a side of a box domain; this domain "
-                          f"is a {kind}: use surface: <name>")
-            if b.surface is not None and kind != "box":
-                from .geometry import GeometryError
-                try:
-                    domain_solid(case).surface_ids(b.surface)
-                except GeometryError as exc:      # unknown or ambiguous name
-                    raise err(path + ("surface",), exc.message) from None
-            elif b.surface is not None and b.surface not in FACES:
-                raise err(path + ("surface",), f"unknown surface {b.surface!r} of the box "
-                          f"(its surfaces: {', '.join(FACES)})")
+                raise err(path + ("face",), "face selects a side of a box domain; this "
+                          + (f"domain is a {kind}: use surface: <name>" if kind != "parts"
+                             else "case has parts: use surface: <part>.<surface>"))
+            if b.surface is not None:
+                check_surface(b.surface, path + ("surface",))
+                if surface_part(case, b.surface).mesh.kind == "rigid":
+                    raise err(path + ("surface",), f"{b.surface} is a surface of a rigid part: "
+                              f"fix the part as a group ({{group: "
+                              f"{surface_part(case, b.surface).name}, fix: all}})")
         if not isinstance(b, FaceSupport) and b.group is not None:
             check_group(b.group, path + ("group",))
         if isinstance(b, (FaceSupport, GroupFix)):
@@ -1263,7 +1428,8 @@ def load_case_text(text: str | bytes, filename: str = "<string>") -> Case:
 
     _to_si(case, UNIT_FACTORS[case.units])
     if UNIT_FACTORS[case.units]:
-        case.domain._solid = None      # checked in the file's units: rebuilt in SI
+        for part in scene_parts(case):
+            part.geometry._solid = None      # checked in the file's units: rebuilt in SI
     case.units = "SI"
     if case.output.file is None:      # in the working directory, whatever the name holds
         safe = "".join("_" if c in "/\\" or not c.isprintable() else c for c in case.name)

@@ -215,19 +215,66 @@ def new_state(model):
 
 
 def build_mesh(case):
-    """Cells of the domain: a box cut directly (blocks, Voronoi clipped by
+    """Cells of the scene (DESIGN.md §6).  One part (the ``domain`` +
+    ``mesh`` shorthand): its mesh (part_mesh).  Several parts: each part's
+    mesh, merged (mesh/merge.py), and the overlaps of touching parts'
+    boundary faces (mesh/interface.py) added as internal faces that carry
+    the index of their interface (Mesh.face_interface); parts that touch
+    with no interface in the case are an error."""
+    from .case import scene_parts
+    parts = scene_parts(case)
+    if not case.parts:
+        return part_mesh(case, parts[0])
+    from .mesh.interface import face_overlaps
+    from .mesh.merge import add_interface_faces, merge_meshes
+    mesh = merge_meshes([part_mesh(case, p) for p in parts], [p.name for p in parts])
+    diag = float(np.linalg.norm(mesh.box[1] - mesh.box[0]))
+    try:
+        ov = face_overlaps(mesh.bface_vertex_ptr, mesh.bface_vertex_xyz, mesh.bface_normal,
+                           mesh.bface_cell, mesh.cell_part, length_tol=1e-9 * diag)
+    except ValueError as exc:
+        raise case.error(("interfaces",), str(exc)) from None
+    names = list(case.parts)
+    pair_of = {}
+    for i, it in enumerate(case.interfaces):
+        pa, pb = (names.index(x) for x in it.parts)
+        pair_of[(min(pa, pb), max(pa, pb))] = i
+    pa = mesh.cell_part[ov.cells[:, 0]]
+    pb = mesh.cell_part[ov.cells[:, 1]]
+    lo, hi = np.minimum(pa, pb), np.maximum(pa, pb)
+    iface = np.full(len(lo), -1, dtype=np.int64)
+    for (p0, p1), i in pair_of.items():
+        iface[(lo == p0) & (hi == p1)] = i
+    if np.any(iface < 0):
+        k = int(np.argmax(iface < 0))
+        p0, p1 = names[lo[k]], names[hi[k]]
+        area = float(ov.area[(lo == lo[k]) & (hi == hi[k])].sum())
+        raise case.error(("interfaces",), f"parts {p0} and {p1} touch ({area:.4g} m² of "
+                         f"shared faces): say how they are joined, e.g. interfaces: "
+                         f"[{{parts: [{p0}, {p1}], law: bonded}}] or law: contact")
+    return add_interface_faces(mesh, ov.cells, ov.vertex_ptr, ov.vertex_xyz, ov.normal, iface)
+
+
+def part_mesh(case, part):
+    """Cells of one part: a box cut directly (blocks, Voronoi clipped by
     mirrors), any other geometry by clipping the cells of a box around it
     to the solid (mesh/clip.py): Voronoi cells of the seeds inside the
-    solid, or blocks over its bounds."""
-    m = case.mesh
-    if case.domain.kind() == "box":
-        box = np.asarray(case.domain.box, dtype=float)
+    solid, or blocks over its bounds; a rigid part is one cell bounded by
+    its solid's triangles (mesh/merge.py rigid_mesh)."""
+    from .case import part_solid
+    m = part.mesh
+    if m.kind == "rigid":
+        from .mesh.merge import rigid_mesh
+        solid = part_solid(case, part)
+        return rigid_mesh(solid.vertices, solid.triangles, solid.tri_surface,
+                          solid.surface_names)
+    if part.geometry.kind() == "box":
+        box = np.asarray(part.geometry.box, dtype=float)
         if m.kind == "blocks":
             return block_mesh(box, tuple(m.divisions))
         return voronoi_mesh(box, m.size, seed=m.seed, min_spacing=m.min_spacing)
-    from .case import domain_solid
     from .mesh.clip import clip_to_solid
-    solid = domain_solid(case)
+    solid = part_solid(case, part)
     lo, hi = solid.bounds
     if m.kind == "blocks":
         cells = block_mesh(np.array([lo, hi]), tuple(m.divisions))
@@ -237,8 +284,8 @@ def build_mesh(case):
         seeds = voronoi_seeds(box, m.size, seed=m.seed, min_spacing=m.min_spacing)
         seeds = seeds[solid.contains(seeds)]
         if len(seeds) == 0:
-            raise case.error(("mesh", "size"), "no cell seed falls inside the solid: make the "
-                             "cells smaller than the solid")
+            raise case.error(part.mesh_path + ("size",), "no cell seed falls inside the "
+                             "solid: make the cells smaller than the solid")
         from .mesh.voronoi import voronoi_cells
         cells = voronoi_cells(seeds, m.size, box)
     try:
@@ -246,7 +293,7 @@ def build_mesh(case):
                              solid.surface_names, box=np.array([lo, hi]),
                              contains=solid.contains)
     except ValueError as exc:
-        raise case.error(("mesh",), str(exc)) from None
+        raise case.error(part.mesh_path, str(exc)) from None
 
 
 def _frames_from_normals(normal):
@@ -264,6 +311,26 @@ def _frame_normals(frame):
     w, x, y, z = frame.T
     return np.ascontiguousarray(np.stack([1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y + w * z),
                                           2.0 * (x * z - w * y)], axis=1))
+
+
+def _spring_points_by_rule(ptr, xyz, normal, rule):
+    """spring_points over polygons with a rule each (rule (F,) str): one
+    call per distinct rule, points ordered by polygon."""
+    from .mesh._core import _gather
+    from .mesh.spring_points import SpringPoints
+    rules = np.unique(rule)
+    if len(rules) <= 1:
+        return spring_points(ptr, xyz, normal, rules[0] if len(rules) else "moment")
+    out = []
+    for r in rules:
+        sel = np.nonzero(rule == r)[0]
+        p2, vid = _gather(ptr, np.arange(len(xyz)), sel)
+        sp = spring_points(p2, xyz[vid], normal[sel], r)
+        out.append(SpringPoints(sp.point, sp.weight, sel[sp.face]))
+    face = np.concatenate([o.face for o in out])
+    order = np.argsort(face, kind="stable")
+    return SpringPoints(np.concatenate([o.point for o in out])[order],
+                        np.concatenate([o.weight for o in out])[order], face[order])
 
 
 def elastic_law_row():
@@ -342,12 +409,14 @@ def _select(case, name, centroids):
 
 
 def surface_ids(case, mesh, name):
-    """Indices into mesh.surface_names of a named surface of the domain (a
-    box's: xmin ... zmax; else rbsm_dyn.geometry's naming rules)."""
-    if case.domain.kind() == "box":
-        return (mesh.surface_names.index(name),)
-    from .case import domain_solid
-    return domain_solid(case).surface_ids(name)
+    """Indices into mesh.surface_names of a named surface (case.py
+    surface_indices: a box's xmin ... zmax, a geometry's naming rules, or
+    <part>.<surface> in a scene of parts)."""
+    from .case import surface_indices
+    try:
+        return surface_indices(case, name)
+    except ValueError as exc:
+        raise case.error(("boundary",), str(exc)) from None
 
 
 def surface_load(case, mesh, item, path):
@@ -381,8 +450,14 @@ def build_model(case, mesh=None):
     n = mesh.n_cells
     cen = mesh.cell_centroid
 
-    # groups and materials
+    # groups and materials: each part is a group of its bodies
+    from .case import scene_parts
+    parts = scene_parts(case)
+    body_part = (np.zeros(n, dtype=np.int64) if mesh.cell_part is None
+                 else np.asarray(mesh.cell_part, dtype=np.int64))
     groups = {"all": np.arange(n, dtype=IDX)}
+    for k, part in enumerate(parts if case.parts else []):
+        groups[part.name] = np.nonzero(body_part == k)[0].astype(IDX)
     for name in (case.groups or {}):
         ids = _select(case, name, cen)
         if len(ids) == 0:
@@ -390,29 +465,75 @@ def build_model(case, mesh=None):
         groups[name] = ids
     mat_names = list(case.materials)
     body_material = np.zeros(n, dtype=IDX)
+    for k, part in enumerate(parts):
+        if part.material is not None:
+            body_material[body_part == k] = mat_names.index(part.material)
     for name, g in (case.groups or {}).items():
         if getattr(g, "material", None):
             body_material[groups[name]] = mat_names.index(g.material)
-    materials = []
+    rigid_part = np.array([p.mesh.kind == "rigid" for p in parts])
+    body_rigid = rigid_part[body_part]
+    # law slots: one per (material, part) pair in use; stiffness and
+    # fracture calibration depend on the part's mesh kind and cell size
+    n_parts = len(parts)
+    slots, body_slot = np.unique(body_material.astype(np.int64) * n_parts + body_part,
+                                 return_inverse=True)
+    body_slot = body_slot.reshape(-1)
+    deformable = [p for p in parts if p.mesh.kind != "rigid"]
+    materials = [None] * len(mat_names)
     law_rows = [elastic_law_row()]
-    for k, name in enumerate(mat_names):
-        mat = case.materials[name]
+    slot_e0, slot_alpha, slot_lam = [], [], []
+    for key in slots:
+        j, part = int(key // n_parts), parts[int(key % n_parts)]
+        name, mat = mat_names[j], case.materials[mat_names[j]]
+        # a rigid part's own springs (none) need no calibration; its law
+        # row serves a bonded interface, calibrated as the other part's mesh
+        ref = part if part.mesh.kind != "rigid" else (deformable[0] if deformable else part)
+        kind = ref.mesh.kind if ref.mesh.kind != "rigid" else "blocks"
+        from .case import part_cell_size
         try:
-            e0, alpha, lam_aux = stiffness_rule(mat.stiffness, case.mesh.kind, mat.young,
-                                                mat.poisson)
+            e0, alpha, lam_aux = stiffness_rule(mat.stiffness, kind, mat.young, mat.poisson)
         except ValueError as exc:
             raise case.error(("materials", name, "poisson"), str(exc)) from None
-        materials.append(dict(name=name, density=mat.density, young=mat.young,
-                              poisson=mat.poisson, stiffness=mat.stiffness, e0=e0, alpha=alpha,
-                              lambda_aux=lam_aux))
-        law_rows.append(material_law_row(mat, case.mesh.kind, case.mesh.size))
-    # rows 1 + n_mat + j: material j at unbreakable supports (yield, no rupture)
-    for row in law_rows[1:1 + len(mat_names)]:
+        if materials[j] is None:
+            materials[j] = dict(name=name, density=mat.density, young=mat.young,
+                                poisson=mat.poisson, stiffness=mat.stiffness, e0=e0,
+                                alpha=alpha, lambda_aux=lam_aux)
+        if part.mesh.kind == "rigid":
+            e0, alpha, lam_aux = np.inf, 1.0, 0.0
+        slot_e0.append(e0)
+        slot_alpha.append(alpha)
+        slot_lam.append(lam_aux)
+        law_rows.append(material_law_row(mat, kind, part_cell_size(case, ref)))
+    for j, name in enumerate(mat_names):
+        if materials[j] is None:        # a material no body uses
+            mat = case.materials[name]
+            materials[j] = dict(name=name, density=mat.density, young=mat.young,
+                                poisson=mat.poisson, stiffness=mat.stiffness)
+    n_slots = len(slots)
+    # rows 1 + n_slots + k: slot k at unbreakable supports (yield, no rupture)
+    for row in law_rows[1:1 + n_slots]:
         law_rows.append(unbreakable(row))
+    # rows of the interfaces: bonded with a material of its own, or contact
+    iface_row = []
+    for it in case.interfaces:
+        if it.law == "contact":
+            row = elastic_law_row()
+            row[P_MU] = it.friction or 0.0
+        elif it.material is not None:
+            ref = next(p for p in parts if p.name in it.parts and p.mesh.kind != "rigid")
+            from .case import part_cell_size
+            row = material_law_row(case.materials[it.material], ref.mesh.kind,
+                                   part_cell_size(case, ref))
+        else:
+            row = None                   # the weaker of the two cells' laws
+        iface_row.append(-1 if row is None else len(law_rows))
+        if row is not None:
+            law_rows.append(row)
     law_params = np.array(law_rows, dtype=float)
     dens = np.array([m["density"] for m in materials])[body_material]
-    e0 = np.array([m["e0"] for m in materials])[body_material]
-    alpha = np.array([m["alpha"] for m in materials])[body_material]
+    e0 = np.array(slot_e0)[body_slot]
+    alpha = np.array(slot_alpha)[body_slot]
 
     # bodies: mass, principal inertia and axes
     mass = dens * mesh.cell_volume
@@ -427,9 +548,12 @@ def build_model(case, mesh=None):
     quat0[n] = (1.0, 0.0, 0.0, 0.0)
     pos0 = np.vstack([cen, np.zeros((1, 3))])
 
-    rule = case.mesh.spring_points
-    # internal springs
-    sp = spring_points(mesh.face_vertex_ptr, mesh.face_vertex_xyz, mesh.face_normal, rule)
+    # internal springs (each face with the spring-point rule of its part;
+    # an interface face, of its deformable side's part)
+    part_rule = np.array([p.mesh.spring_points for p in parts])
+    fa, fb = mesh.face_cells[:, 0], mesh.face_cells[:, 1]
+    sp = _spring_points_by_rule(mesh.face_vertex_ptr, mesh.face_vertex_xyz, mesh.face_normal,
+                                part_rule[np.where(body_rigid[fa], body_part[fb], body_part[fa])])
     f = sp.face
     a = mesh.face_cells[f, 0]
     b = mesh.face_cells[f, 1]
@@ -437,6 +561,9 @@ def build_model(case, mesh=None):
     fc = mesh.face_centroid[f]
     h_a = np.einsum("ij,ij->i", fc - cen[a], nrm)
     h_b = np.einsum("ij,ij->i", cen[b] - fc, nrm)
+    # a rigid body's side of a spring has no length (and no compliance)
+    h_a = np.where(body_rigid[a], 0.0, h_a)
+    h_b = np.where(body_rigid[b], 0.0, h_b)
     # half-lengths in series (Kawai 1978: h = h1 + h2)
     kn = 1.0 / (h_a / e0[a] + h_b / e0[b])
     ks = 1.0 / (h_a / (alpha[a] * e0[a]) + h_b / (alpha[b] * e0[b]))
@@ -450,12 +577,22 @@ def build_model(case, mesh=None):
         inside = np.all((sp.point >= box[0]) & (sp.point <= box[1]), axis=1)
         keep &= ~((sa * sb < 0) & inside)
     n_cut = int((~keep).sum())
-    # law of each internal spring: the weaker of its two materials (row 1 + material)
-    ma = body_material[a]
-    mb = body_material[b]
-    weaker = np.where(strength_of(law_params[1 + ma]) <= strength_of(law_params[1 + mb]), ma, mb)
+    # law of each internal spring: the weaker of its two cells' slots (row 1 + slot);
+    # on an interface, the interface's row (bonded with a material, contact)
+    sa_, sb_ = body_slot[a], body_slot[b]
+    rows = law_params[1:1 + n_slots]
+    weaker = np.where(strength_of(rows[sa_]) <= strength_of(rows[sb_]), sa_, sb_)
+    weaker = np.where(body_rigid[a], sb_, np.where(body_rigid[b], sa_, weaker))
     law = (1 + weaker).astype(IDX)
     state0 = np.where(keep, ELASTIC, BROKEN).astype(np.int8)
+    if mesh.face_interface is not None:
+        fi = mesh.face_interface[f]
+        for i, it in enumerate(case.interfaces):
+            on = fi == i
+            if iface_row[i] >= 0:
+                law[on] = iface_row[i]
+            if it.law == "contact":
+                state0[on] = BROKEN
     internal = dict(a=a, b=b, point=sp.point, normal=nrm, area=sp.weight, h=h_a + h_b,
                     k=np.stack([kn, ks, ks], axis=1) * sp.weight[:, None],
                     frame=_frames_from_normals(nrm), face=f.astype(IDX), law=law, state0=state0)
@@ -479,7 +616,8 @@ def build_model(case, mesh=None):
         from .mesh._core import _gather
         ptr, vid = _gather(mesh.bface_vertex_ptr, np.arange(len(mesh.bface_vertex_xyz)), sel)
         xyz = mesh.bface_vertex_xyz[vid]
-        bsp = spring_points(ptr, xyz, mesh.bface_normal[sel], rule)
+        bsp = spring_points(ptr, xyz, mesh.bface_normal[sel],
+                            parts[body_part[mesh.bface_cell[sel[0]]]].mesh.spring_points)
         bf = sel[bsp.face]
         cell = mesh.bface_cell[bf]
         nrm_b = mesh.bface_normal[bf]
@@ -513,8 +651,8 @@ def build_model(case, mesh=None):
         sup.append(dict(a=cell, b=np.full(len(cell), n), point=bsp.point,
                         normal=nrm_b, area=bsp.weight, h=h, k=k * bsp.weight[:, None],
                         frame=frames, face=(-1 - bf).astype(IDX),
-                        law=(1 + body_material[cell]
-                             + (0 if item.breakable else len(mat_names))).astype(IDX),
+                        law=(1 + body_slot[cell]
+                             + (0 if item.breakable else n_slots)).astype(IDX),
                         state0=np.zeros(len(cell), dtype=np.int8)))
 
     parts = [internal] + sup
@@ -544,6 +682,10 @@ def build_model(case, mesh=None):
     end_time = getattr(case.solver, "end_time", None) or 1.0
     dof_item = np.full((n, 6), -1)          # the boundary item that set each component
     notes = []
+    for i, it in enumerate(case.interfaces):
+        if mesh.face_interface is None or not np.any(mesh.face_interface == i):
+            notes.append(f"interfaces[{i}]: parts {it.parts[0]} and {it.parts[1]} do not touch "
+                         "(no shared faces): nothing joins them")
 
     def claim(ids, c, j, what):
         """Warn when an earlier item prescribed component c of these bodies
@@ -639,10 +781,12 @@ def build_model(case, mesh=None):
     if not any(getattr(item, "follower", False) for item in case.loads or []):
         ffol = mfol = np.zeros((0, 3))
 
-    lam_aux = np.array([m["lambda_aux"] for m in materials])[body_material]
+    lam_aux = np.array(slot_lam)[body_slot]
     # the strain fit links cells of one material across intact faces (physics/poisson.py)
     poisson = (build_poisson(mesh.face_cells, mesh.face_area, cen, mesh.cell_volume, lam_aux,
-                             rot0, cat["face"], 0.5 * alpha * e0, body_material, cat["state0"])
+                             rot0, cat["face"], np.where(body_rigid, 0.0, 0.5 * alpha * e0),
+                             np.where(body_rigid, len(mat_names) + np.arange(n), body_material),
+                             cat["state0"])
                if np.any(lam_aux > 0) else empty_poisson(n))
     return Model(
         poisson=poisson, warnings=tuple(notes),
@@ -661,7 +805,8 @@ def build_model(case, mesh=None):
         hist_a=np.asarray(hist_a, float), groups=groups, materials=materials, mesh=mesh,
         n_cut=n_cut, spring_law=cat["law"].astype(IDX), law_params=law_params,
         spring_state0=cat["state0"].astype(np.int8),
-        inelastic=bool(n_cut > 0 or np.any(law_params[:, [P_CRIT, P_RUPT]] > 0)))
+        inelastic=bool(n_cut > 0 or np.any(cat["state0"] >= BROKEN)
+                       or np.any(law_params[:, [P_CRIT, P_RUPT]] > 0)))
 
 
 def apply_initial(case, model, state):

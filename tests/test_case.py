@@ -261,7 +261,7 @@ def test_inf():
 
 def test_bad_mesh_kind():
     expect(bad(BASE.replace("kind: blocks", "kind: voronio")),
-           5, "mesh.kind", "must be one of voronoi, blocks (got 'voronio')")
+           5, "mesh.kind", "must be one of voronoi, blocks, rigid (got 'voronio')")
 
 
 def test_unknown_group_in_boundary():

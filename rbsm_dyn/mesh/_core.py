@@ -37,6 +37,13 @@ class Mesh:
     surface_names: the names of the boundary surfaces; bface_side indexes
       them (a box: SIDES; a clipped solid, mesh/clip.py: its named surfaces,
       bface_normal then the true outward normals of the facets).
+    Parts (mesh/merge.py: merge_meshes, add_interface_faces; a rigid_mesh
+    cell is one closed, possibly non-convex, triangle surface):
+      cell_part (N,) int64: the part index of each cell (None: one part,
+      all 0); part_names: the names of the parts (empty for a one-part
+      mesh); face_interface (F,) int64: −1 for a face between two cells of
+      one part, else the index of the interface (a pair of parts) the face
+      belongs to (None: all −1).
 
     Index arrays are int64, coordinates float64.  The arrays are not locked
     (write flags stay on so that Numba sees ordinary arrays): treat them as
@@ -66,6 +73,9 @@ class Mesh:
     bface_vertex_xyz: np.ndarray
     box: np.ndarray
     surface_names: tuple = SIDES
+    cell_part: np.ndarray = None
+    part_names: tuple = ()
+    face_interface: np.ndarray = None
 
     @property
     def n_cells(self) -> int:

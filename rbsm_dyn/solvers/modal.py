@@ -179,11 +179,8 @@ def run(case, model, recorder, *, max_steps=None, progress=None, out=None):
         raise case.error(("solver", "modes"), str(exc)) from None
     from .explicit import spring_pass
     zero = np.zeros((n, 3))
-    if case.domain.kind() == "box":
-        box = np.asarray(case.domain.box, float)
-    else:
-        box = np.asarray(case.domain._solid.bounds if case.domain._solid is not None
-                         else [model.body_pos0[:-1].min(axis=0), model.body_pos0[:-1].max(axis=0)])
+    box = np.asarray(model.mesh.box if model.mesh is not None
+                     else [model.body_pos0[:-1].min(axis=0), model.body_pos0[:-1].max(axis=0)])
     amp = DISPLAY_FRACTION * float(np.max(box[1] - box[0]))
     state = new_state(model)
     spring_pass(model, state)
