@@ -561,6 +561,14 @@ def build_model(case, mesh=None):
     fc = mesh.face_centroid[f]
     h_a = np.einsum("ij,ij->i", fc - cen[a], nrm)
     h_b = np.einsum("ij,ij->i", cen[b] - fc, nrm)
+    # A cell clipped around a notch tip or a hole may be non-convex, its
+    # centroid behind one of its faces (h ≤ 0: a negative spring).  Such a
+    # face takes the distance's magnitude, at least a twentieth of the cell's
+    # size V^(1/3) (convex cells always have h > 0; only slivers thinner
+    # than that are touched)
+    h_min = 0.05 * np.cbrt(mesh.cell_volume)
+    h_a = np.maximum(np.abs(h_a), h_min[a])
+    h_b = np.maximum(np.abs(h_b), h_min[b])
     # a rigid body's side of a spring has no length (and no compliance)
     h_a = np.where(body_rigid[a], 0.0, h_a)
     h_b = np.where(body_rigid[b], 0.0, h_b)
@@ -622,6 +630,7 @@ def build_model(case, mesh=None):
         cell = mesh.bface_cell[bf]
         nrm_b = mesh.bface_normal[bf]
         h = np.einsum("ij,ij->i", mesh.bface_centroid[bf] - cen[cell], nrm_b)
+        h = np.maximum(np.abs(h), 0.05 * np.cbrt(mesh.cell_volume[cell]))   # as above
         kk = e0[cell] / h
         axis_of = np.argmax(np.abs(nrm_b), axis=1)
         aligned = np.abs(nrm_b[np.arange(len(bf)), axis_of]) > 1.0 - 1e-12

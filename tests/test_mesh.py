@@ -552,3 +552,29 @@ def test_spring_points_on_mesh_faces():
     assert (np.abs(J[0] - J[1]).max(axis=(1, 2)) / scale).max() < 1e-10
     b = spring_points(m.bface_vertex_ptr, m.bface_vertex_xyz, m.bface_normal)
     assert rel(np.bincount(b.face, b.weight, minlength=len(m.bface_cell)), m.bface_area) < 1e-12
+
+
+@pytest.mark.parametrize("rule", ["centroid", "moment", "three"])
+def test_spring_points_on_a_non_convex_face_are_positive(rule):
+    """A U-shaped face (3 × 3 square less a 1 × 2 slot; its centroid
+    (1.5, 19/14) lies in the slot, so the fan from it has triangles of
+    negative area) is cut by ear clipping: every weight is positive, they
+    sum to the area 7, their first moment gives the centroid (1e-12), and
+    the moment and three-point rules give the exact second moments about it
+    (∫(x − x̄)² = 79/12, ∫(y − ȳ)² from the square less the slot: 1e-12);
+    a tilted copy gives the same."""
+    from rbsm_dyn.mesh import spring_points
+    U = np.array([[0, 0], [3, 0], [3, 3], [2, 3], [2, 1], [1, 1], [1, 3], [0, 3]], float)
+    R = Rotation.from_euler("xyz", [0.3, -0.5, 0.9]).as_matrix()
+    xyz = np.c_[U, np.zeros(len(U))] @ R.T + [0.2, -0.1, 0.4]
+    sp = spring_points(np.array([0, 8]), xyz, R[:, 2][None, :], rule)
+    assert np.all(sp.weight > 0)
+    assert sp.weight.sum() == pytest.approx(7.0, rel=1e-12)
+    local = (sp.point - [0.2, -0.1, 0.4]) @ R
+    c = sp.weight @ local / 7.0
+    assert c == pytest.approx([1.5, 19 / 14, 0.0], abs=1e-12)
+    ybar = 19 / 14
+    iyy = 3 * 27 / 12 + 9 * (1.5 - ybar) ** 2 - (8 / 12 + 2 * (2 - ybar) ** 2)
+    if rule != "centroid":
+        assert sp.weight @ (local[:, 0] - 1.5) ** 2 == pytest.approx(79 / 12, rel=1e-12)
+        assert sp.weight @ (local[:, 1] - ybar) ** 2 == pytest.approx(iyy, rel=1e-12)

@@ -127,38 +127,53 @@ def spring_points(vertex_ptr, vertex_xyz, normal, rule="moment"):
     n, poly, nxt = _polygon_index(vertex_ptr)
     F = len(n)
     area, c = polygon_properties(vertex_ptr, vertex_xyz, normal)
-    # fan triangles (c, v_k, v_k+1), one per polygon vertex k
-    a = vertex_xyz - c[poly]
-    b = vertex_xyz[nxt] - c[poly]
-    w = 0.5 * np.einsum("ij,ij->i", np.cross(a, b), normal[poly])
+    # fan triangles (c, v_k, v_k+1), one per polygon vertex k: each triangle
+    # is (q0, q1, q2) relative to the face centroid c, q0 = 0 on the fan
+    q1 = vertex_xyz - c[poly]
+    q2 = vertex_xyz[nxt] - c[poly]
+    w = 0.5 * np.einsum("ij,ij->i", np.cross(q1, q2), normal[poly])
+    q0 = np.zeros_like(q1)
+    tri = poly
+    bent = np.bincount(poly, w < 0.0, minlength=F) > 0
+    if np.any(bent):
+        # a non-convex face (a cell clipped round a notch tip): the fan has
+        # triangles of negative area, i.e. negative springs.  Such faces are
+        # cut by ear clipping instead (Eberly, "Triangulation by ear
+        # clipping", 2002), n − 2 triangles of positive area.
+        q0, q1, q2, w, tri = _ear_fans(vertex_ptr, vertex_xyz, normal, c, bent, poly,
+                                       q0, q1, q2, w)
+    s_ = q0 + q1 + q2
     if rule == "three":
-        # barycentric (2/3, 1/6, 1/6) on (c, v_k, v_k+1) and permutations
-        offs = np.stack([(a + b) / 6.0, (4.0 * a + b) / 6.0, (a + 4.0 * b) / 6.0], axis=1)
-        point = (c[poly][:, None, :] + offs).reshape(-1, 3)
+        # barycentric (2/3, 1/6, 1/6) and permutations
+        offs = np.stack([(4.0 * q0 + q1 + q2) / 6.0, (q0 + 4.0 * q1 + q2) / 6.0,
+                         (q0 + q1 + 4.0 * q2) / 6.0], axis=1)
+        point = (c[tri][:, None, :] + offs).reshape(-1, 3)
         weight = np.repeat(w / 3.0, 3)
-        face = np.repeat(poly, 3)
+        face = np.repeat(tri, 3)
         return SpringPoints(point, weight, face)
-    d = (a + b) / 3.0  # triangle centroid − c
+    d = s_ / 3.0  # triangle centroid − c
     if rule == "centroid":
-        return SpringPoints(c[poly] + d, w, poly.copy())
+        return SpringPoints(c[tri] + d, w, tri.copy())
 
     # rule "moment": in-plane orthonormal basis (e1, e2) with e1 × e2 = n
     e1 = np.cross(normal, np.where(np.abs(normal[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]]))
     e1 /= np.linalg.norm(e1, axis=1)[:, None]
     e2 = np.cross(normal, e1)
-    au = np.einsum("ij,ij->i", a, e1[poly])
-    av = np.einsum("ij,ij->i", a, e2[poly])
-    bu = np.einsum("ij,ij->i", b, e1[poly])
-    bv = np.einsum("ij,ij->i", b, e2[poly])
-    su, sv = au + bu, av + bv
-    # exact: ∫ over triangle (0, a, b) of x xᵀ = A/12 (a aᵀ + b bᵀ + s sᵀ)
-    J11 = np.bincount(poly, w * (au * au + bu * bu + su * su), minlength=F) / 12.0
-    J12 = np.bincount(poly, w * (au * av + bu * bv + su * sv), minlength=F) / 12.0
-    J22 = np.bincount(poly, w * (av * av + bv * bv + sv * sv), minlength=F) / 12.0
+    E1, E2 = e1[tri], e2[tri]
+    u = [np.einsum("ij,ij->i", q, E1) for q in (q0, q1, q2)]
+    v = [np.einsum("ij,ij->i", q, E2) for q in (q0, q1, q2)]
+    su, sv = u[0] + u[1] + u[2], v[0] + v[1] + v[2]
+    # exact: ∫ over the triangle (q0, q1, q2) of x xᵀ = A/12 (Σ qi qiᵀ + s sᵀ)
+    J11 = np.bincount(tri, w * (u[0] * u[0] + u[1] * u[1] + u[2] * u[2] + su * su),
+                      minlength=F) / 12.0
+    J12 = np.bincount(tri, w * (u[0] * v[0] + u[1] * v[1] + u[2] * v[2] + su * sv),
+                      minlength=F) / 12.0
+    J22 = np.bincount(tri, w * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2] + sv * sv),
+                      minlength=F) / 12.0
     # points: Σ w g gᵀ with g = s/3
-    P11 = np.bincount(poly, w * su * su, minlength=F) / 9.0
-    P12 = np.bincount(poly, w * su * sv, minlength=F) / 9.0
-    P22 = np.bincount(poly, w * sv * sv, minlength=F) / 9.0
+    P11 = np.bincount(tri, w * su * su, minlength=F) / 9.0
+    P12 = np.bincount(tri, w * su * sv, minlength=F) / 9.0
+    P22 = np.bincount(tri, w * sv * sv, minlength=F) / 9.0
     # T = J^½ Jp^-½
     r11, r12, r22 = _sqrt_spd2(J11, J12, J22)
     q11, q12, q22 = _sqrt_spd2(P11, P12, P22)
@@ -182,7 +197,106 @@ def spring_points(vertex_ptr, vertex_xyz, normal, rule="moment"):
         T11[bad], T12[bad], T21[bad], T22[bad] = sc, 0.0, 0.0, sc
     du = su / 3.0
     dv = sv / 3.0
-    nu = T11[poly] * du + T12[poly] * dv
-    nv = T21[poly] * du + T22[poly] * dv
-    point = c[poly] + nu[:, None] * e1[poly] + nv[:, None] * e2[poly]
-    return SpringPoints(point, w, poly.copy())
+    nu = T11[tri] * du + T12[tri] * dv
+    nv = T21[tri] * du + T22[tri] * dv
+    point = c[tri] + nu[:, None] * E1 + nv[:, None] * E2
+    return SpringPoints(point, w, tri.copy())
+
+
+def _ear_fans(vertex_ptr, vertex_xyz, normal, c, bent, poly, q0, q1, q2, w):
+    """Replace the fan triangles of the faces ``bent`` by an ear-clipping
+    triangulation; returns (q0, q1, q2, w, face) ordered by face."""
+    import numba  # noqa: F401  (the kernel below is compiled on first use)
+    vertex_ptr = np.asarray(vertex_ptr, dtype=np.int64)
+    faces = np.nonzero(bent)[0]
+    e1 = np.cross(normal[faces], np.where(np.abs(normal[faces, :1]) < 0.9, [[1.0, 0, 0]],
+                                          [[0, 1.0, 0]]))
+    e1 /= np.linalg.norm(e1, axis=1)[:, None]
+    e2 = np.cross(normal[faces], e1)
+    cnt = np.diff(vertex_ptr)[faces]
+    ptr = np.zeros(len(faces) + 1, dtype=np.int64)
+    np.cumsum(cnt, out=ptr[1:])
+    idx = np.repeat(vertex_ptr[faces], cnt) + np.arange(ptr[-1]) - np.repeat(ptr[:-1], cnt)
+    fk = np.repeat(np.arange(len(faces)), cnt)
+    rel = vertex_xyz[idx] - c[faces][fk]
+    uv = np.stack([np.einsum("ij,ij->i", rel, e1[fk]), np.einsum("ij,ij->i", rel, e2[fk])], 1)
+    tri = _ear_clip(ptr, np.ascontiguousarray(uv))          # (T, 3) local vertex rows
+    tface = faces[np.repeat(np.arange(len(faces)), cnt - 2)]
+    Q = rel[tri]                                              # (T, 3, 3)
+    wt = 0.5 * np.einsum("ij,ij->i", np.cross(Q[:, 1] - Q[:, 0], Q[:, 2] - Q[:, 0]),
+                         normal[tface])
+    keep = ~bent[poly]
+    face = np.concatenate([poly[keep], tface])
+    order = np.argsort(face, kind="stable")
+    cat = lambda a, b: np.concatenate([a[keep], b])[order]  # noqa: E731
+    return (cat(q0, Q[:, 0]), cat(q1, Q[:, 1]), cat(q2, Q[:, 2]), cat(w, wt), face[order])
+
+
+def _ear_clip_kernel():
+    import numba as nb
+
+    @nb.njit(cache=True)
+    def ear_clip(ptr, uv):
+        """Ear clipping of simple polygons (counter-clockwise, CSR ptr, 2D
+        points uv): (Σ (n − 2), 3) local vertex indices (rows of uv)."""
+        F = len(ptr) - 1
+        total = 0
+        for f in range(F):
+            total += ptr[f + 1] - ptr[f] - 2
+        out = np.empty((total, 3), dtype=np.int64)
+        t = 0
+        for f in range(F):
+            p0, n = ptr[f], ptr[f + 1] - ptr[f]
+            live = np.arange(n)
+            m = n
+            guard = 0
+            i = 0
+            while m > 3 and guard < 2 * n * n:
+                guard += 1
+                ia, ib, ic = live[(i - 1) % m], live[i % m], live[(i + 1) % m]
+                ax, ay = uv[p0 + ia, 0], uv[p0 + ia, 1]
+                bx, by = uv[p0 + ib, 0], uv[p0 + ib, 1]
+                cx, cy = uv[p0 + ic, 0], uv[p0 + ic, 1]
+                cross = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
+                ear = cross > 0.0
+                if ear:
+                    for k in range(m):
+                        j = live[k]
+                        if j == ia or j == ib or j == ic:
+                            continue
+                        px, py = uv[p0 + j, 0], uv[p0 + j, 1]
+                        d1 = (bx - ax) * (py - ay) - (by - ay) * (px - ax)
+                        d2 = (cx - bx) * (py - by) - (cy - by) * (px - bx)
+                        d3 = (ax - cx) * (py - cy) - (ay - cy) * (px - cx)
+                        if d1 >= 0.0 and d2 >= 0.0 and d3 >= 0.0:
+                            ear = False
+                            break
+                if ear:
+                    out[t, 0], out[t, 1], out[t, 2] = p0 + ia, p0 + ib, p0 + ic
+                    t += 1
+                    for k in range(i % m, m - 1):
+                        live[k] = live[k + 1]
+                    m -= 1
+                    i = max(i - 1, 0)
+                else:
+                    i += 1
+            if m == 3:
+                out[t, 0], out[t, 1], out[t, 2] = p0 + live[0], p0 + live[1], p0 + live[2]
+                t += 1
+            else:
+                # no ear found (a degenerate outline): fan the rest
+                for k in range(1, m - 1):
+                    out[t, 0], out[t, 1], out[t, 2] = p0 + live[0], p0 + live[k], p0 + live[k + 1]
+                    t += 1
+        return out
+
+    return ear_clip
+
+
+_EAR_CLIP = []
+
+
+def _ear_clip(ptr, uv):
+    if not _EAR_CLIP:
+        _EAR_CLIP.append(_ear_clip_kernel())
+    return _EAR_CLIP[0](ptr, uv)
