@@ -385,8 +385,11 @@ MODAL_KEYS = ("modes",)
 
 
 class Probe(_Node):
-    """``{group, quantity, component, reduce}``: one number from a group's bodies."""
-    group: str
+    """``{group, quantity, component, reduce}``: one number from a group's
+    bodies; ``surface: name`` instead of ``group``: the cells with a face on
+    that named surface (the reaction on a supported surface)."""
+    group: Optional[str] = None
+    surface: Optional[str] = None
     # (relative_displacement is read as a RelativeProbe: listed here so that
     # a bad quantity's message names every quantity)
     quantity: Literal["displacement", "rotation", "velocity", "force", "reaction",
@@ -1365,7 +1368,13 @@ def _check(case: Case) -> None:
     for name, probe in out.probes.items():
         path = ("output", "probes", name)
         if isinstance(probe, Probe):
-            check_group(probe.group, path + ("group",))
+            if (probe.group is None) == (probe.surface is None):
+                raise err(path, "give group or surface, not both" if probe.group is not None
+                          else "required key missing: group or surface")
+            if probe.surface is not None:
+                check_surface(probe.surface, path + ("surface",))
+            else:
+                check_group(probe.group, path + ("group",))
             continue
         # relative_displacement: two groups or two points, a component or a direction
         if probe.groups is None and probe.points is None:

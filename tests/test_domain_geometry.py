@@ -232,3 +232,18 @@ def test_cells_wrapped_round_a_notch_tip_keep_positive_springs():
         "- {box: [[0.219, -0.01, -0.01], [0.221, 0.05, 0.05]], name: notch}",
         "- {box: [[1.219, -0.01, -0.01], [1.221, 0.05, 0.05]], name: notch}")))
     assert m.stable_dt() > 0.5 * plain.stable_dt()
+
+
+def test_reaction_on_a_supported_surface_balances_the_load(run_case):
+    """A probe on a surface (`{surface: bottom, quantity: reaction}`) sums
+    the support reactions of the cells with a face on it: the column's
+    bottom carries the top load P (1e-9, a linear solve), and the cells of
+    the top surface, unsupported, none (1e-9 P)."""
+    text = column().replace(
+        "ab: {groups: [a, b], quantity: relative_displacement, component: z}",
+        "ab: {groups: [a, b], quantity: relative_displacement, component: z}\n"
+        "        R: {surface: bottom, quantity: reaction, component: z, reduce: sum}\n"
+        "        S: {surface: top, quantity: reaction, component: magnitude, reduce: max}")
+    h = run_case(text)
+    assert h.observables["R"][-1] == pytest.approx(P, rel=1e-9)
+    assert h.observables["S"][-1] == pytest.approx(0.0, abs=1e-9 * P)

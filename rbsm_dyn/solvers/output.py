@@ -141,7 +141,14 @@ def probe_plan(model, probes, case=None):
     R0 = quat_matrix_np(model.body_quat0[:-1])
     for name, p in probes.items():
         if p.quantity != "relative_displacement":
-            plan[name] = ("group", model.groups[p.group])
+            if getattr(p, "surface", None) is not None:
+                # the cells with a boundary face on the surface
+                from ..case import surface_indices
+                mesh = model.mesh
+                on = np.isin(mesh.bface_side, surface_indices(case, p.surface))
+                plan[name] = ("group", np.unique(mesh.bface_cell[on]).astype(np.int32))
+            else:
+                plan[name] = ("group", model.groups[p.group])
             continue
         if p.direction is not None:
             d = np.asarray(p.direction, dtype=float)
