@@ -46,11 +46,14 @@ class Model:
       spring_area, spring_h (S,) [m², m]; spring_face (S,) int32 (internal
       face id, or −1 − boundary face id for supports).
     Spring laws (physics/laws/): spring_law (S,) int32 row of law_params
-      (n_laws, N_PARAMS) [Pa, 1, J/m²]; row 0 is purely elastic, row 1 + j
-      is material j, row 1 + M + j material j without rupture (M materials;
-      a support spring takes its cell's material: a clamp can yield at the
-      face, where beam theory puts the hinge; it breaks only when the
-      support says `breakable: true`);
+      (n_laws, N_PARAMS) [Pa, 1, J/m²]; row 0 is purely elastic, row 1 + k
+      is law slot k (a (material, part) pair in use: the fracture
+      calibration depends on the part's mesh kind and cell size), row
+      1 + K + k slot k without rupture (K slots; a support spring takes its
+      cell's slot: a clamp can yield at the face, where beam theory puts
+      the hinge; it breaks only when the support says `breakable: true`),
+      then one row per interface with a law of its own (contact, or bonded
+      with a material);
       spring_state0 (S,) int8 initial state (cuts: 2, broken);
       inelastic: bool, True when any law or cut needs the inelastic kernel.
     Schedule (partition.py): springs are stored by group, then (a, b);

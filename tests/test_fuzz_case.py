@@ -155,6 +155,29 @@ BASES = {
             top_v: {group: top, quantity: velocity, component: z, reduce: min}
             top_r: {group: top, quantity: rotation, component: y, reduce: mean}
         """,
+    "scene_parts": """\
+        name: fz-scene
+        parts:
+          beam: {geometry: {box: [[0, 0, 0], [0.3, 0.05, 0.05]]},
+                 mesh: {kind: voronoi, size: 0.025, seed: 2}, material: concrete}
+          pad: {geometry: {box: [[0.3, 0, 0], [0.4, 0.05, 0.05]]},
+                mesh: {kind: blocks, divisions: [2, 1, 1]}, material: concrete}
+          platen: {geometry: {cylinder: {base: [0.15, 0.07, 0], axis: [0, 0, 0.05], radius: 0.02},
+                   surfaces: {flat: {normal: [0, -1, 0], angle: 30}}},
+                   mesh: {kind: rigid, size: 0.01}, material: steel}
+        interfaces:
+          - {parts: [beam, pad], law: contact, friction: 0.3}
+        materials:
+          concrete: {density: 2400, young: 30.0e9, poisson: 0.2}
+          steel: {density: 7800, young: 2.0e11, poisson: 0.3}
+        boundary:
+          - {surface: beam.xmin, fix: all}
+          - {group: platen, velocity: [0, -0.1, 0]}
+        solver: {mode: dynamic, end_time: 2.0e-6}
+        output:
+          probes:
+            R: {surface: beam.xmin, quantity: reaction, component: y, reduce: sum}
+        """,
 }
 BASES = {k: textwrap.dedent(v) for k, v in BASES.items()}
 
@@ -237,10 +260,10 @@ SCHEMA_KEYS = [
     "radius", "center", "polygon", "holes", "from", "to", "scale", "surfaces", "surface",
     "chord", "pressure", "traction", "follower", "breakable", "law", "values",
     "shear_strength", "shear_fracture_energy", "groups", "points", "direction",
-    "cell_stress", "angle",
+    "cell_stress", "angle", "parts", "interfaces", "geometry", "rigid", "bonded", "contact",
     "yeild", "Young", "end-time", "", "all", "x", "steel", "tip",
 ]
-WORDS = ["", " ", "abc", "all", "tip", "root", "steel", "glass", "nope", "xmin", "zmax",
+WORDS = ["", " ", "abc", "all", "tip", "beam", "platen", "beam.xmin", "rigid", "contact", "root", "steel", "glass", "nope", "xmin", "zmax",
          "x", "rz", "magnitude", "mean", "dynamic", "static", "linear", "modal", "voronoi",
          "blocks", "SI", "mm-N-s", "von_mises", "mohr_coulomb", "kawai", "position",
          "1e-5", "0x10", "1_000", ".nan", "null", "~", "yes", "no", "on", "off",
@@ -326,7 +349,8 @@ MUTATIONS = ["delete", "replace", "replace", "numeric", "numeric", "unknown_key"
 
 # edits that keep a case valid (mostly): the fuzz must also reach the models
 VALID = {
-    "kind": ["voronoi", "blocks"], "spring_points": ["moment", "centroid", "three"],
+    "kind": ["voronoi", "blocks", "rigid"], "law": ["bonded", "contact"],
+    "spring_points": ["moment", "centroid", "three"],
     "stiffness": ["calibrated", "kawai"], "criterion": ["normal", "tresca", "von_mises"],
     "relaxation": ["adaptive", "local"], "predictor": [True, False],
     "quantity": ["displacement", "rotation", "velocity", "force", "reaction"],
