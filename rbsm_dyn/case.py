@@ -362,8 +362,23 @@ class Damping(_Node):
     alpha: float = Field(default=0.0, ge=0)
 
 
+class Control(_Node):
+    """Indirect displacement control of a static run (solvers/newton.py):
+    each increment raises the value of the relative-displacement probe
+    ``probe`` by ``increment`` [m] until it reaches ``end`` [m]; the load
+    factor follows.  ``stop_fraction`` (optional, in [0, 1)): stop once the
+    load factor has fallen below this fraction of its peak (the softening
+    branch followed far enough)."""
+    probe: str
+    increment: float = Field(gt=0)
+    end: float
+    stop_fraction: float = Field(default=0.0, ge=0, lt=1)
+
+
 class Solver(_Node):
     mode: Literal["dynamic", "static", "linear", "modal"]
+    method: Literal["relaxation", "newton"] = "relaxation"
+    control: Optional[Control] = None
     end_time: Optional[float] = Field(default=None, gt=0)
     dt: Optional[float] = Field(default=None, gt=0)
     dt_safety: float = Field(default=0.8, gt=0, le=1)
@@ -380,7 +395,7 @@ class Solver(_Node):
 
 DYNAMIC_KEYS = ("end_time", "dt", "dt_safety", "damping")
 STATIC_KEYS = ("load_steps", "tolerance", "max_iterations", "relaxation",
-               "damping_factor", "predictor")
+               "damping_factor", "predictor", "method", "control")
 MODAL_KEYS = ("modes",)
 
 
@@ -577,6 +592,8 @@ DIMENSIONS: dict[tuple[type, str], str] = {
     (Damping, "alpha"): "1/time",
     (Solver, "end_time"): "time",
     (Solver, "dt"): "time",
+    (Control, "increment"): "length",
+    (Control, "end"): "length",
     (RelativeProbe, "points"): "length",
     (Output, "interval"): "time",
     (Output, "checkpoint_interval"): "time",
@@ -1348,6 +1365,22 @@ def _check(case: Case) -> None:
             check_only(s, STATIC_KEYS, ("solver",), f"in mode {s.mode}")
     if s.mode != "modal":
         check_only(s, MODAL_KEYS, ("solver",), f"in mode {s.mode}")
+    if s.control is not None:
+        cp = ("solver", "control")
+        if s.method != "newton":
+            raise err(cp, "indirect displacement control needs solver.method: newton")
+        probe = case.output.probes.get(s.control.probe)
+        if probe is None:
+            raise err(cp + ("probe",), f"unknown probe {s.control.probe!r} (output.probes: "
+                      f"{', '.join(case.output.probes) or 'none'})")
+        if not isinstance(probe, RelativeProbe):
+            raise err(cp + ("probe",), f"probe {s.control.probe!r} is not a "
+                      "relative_displacement probe")
+        if probe.component == "magnitude":
+            raise err(cp + ("probe",), f"probe {s.control.probe!r} has component magnitude: "
+                      "a control needs a component x, y, z or a direction")
+        if s.control.end == 0:
+            raise err(cp + ("end",), "must not be 0 (the probe starts at 0)")
 
     out = case.output
     if out.interval is not None:

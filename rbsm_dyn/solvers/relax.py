@@ -36,8 +36,12 @@ def fictitious_masses(model, beta):
 
 
 def run(case, model, recorder, *, max_steps=None, progress=None, check_every=200):
-    """Solve the static case; returns figures (iterations per load step)."""
+    """Solve the static case; returns figures (iterations per load step).
+    `solver.method: newton` goes to solvers/newton.py."""
     sol = case.solver
+    if getattr(sol, "method", "relaxation") == "newton":
+        from . import newton
+        return newton.run(case, model, recorder, max_steps=max_steps, progress=progress)
     state = new_state(model)
     state.dt = 1.0
     m = model

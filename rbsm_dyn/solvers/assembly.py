@@ -1,0 +1,110 @@
+"""Fast re-assembly of the spring stiffness into a fixed block pattern.
+
+K = Σ_s B_sᵀ C_s B_s (Kawai 1978, eq. 8b; stiffness.py builds the same
+matrix with NumPy at the reference), assembled here in the present
+configuration for the Newton iterations of solvers/newton.py: the 6 × 6
+block pattern of the body pairs that share a spring is found once
+(BlockPattern), and each assembly is one compiled pass over the springs
+writing into the blocks of a BSR matrix (no COO sort, no Python loop):
+per spring, C = F diag(k) Fᵀ in the world frame and the blocks
+G_aᵀ C G_a, G_aᵀ C G_b, G_bᵀ C G_a, G_bᵀ C G_b with G_a = [−I, [r_a]×],
+G_b = [I, −[r_b]×] (r the world arms).  Serial: a spring's four blocks are
+summed in spring order, the same result for any thread count.
+"""
+import numba as nb
+import numpy as np
+import scipy.sparse as sp
+
+from ..physics.rotation import quat_matrix_np
+
+
+class BlockPattern:
+    """The 6 × 6 block sparsity of K for a model: BSR indptr/indices over
+    the body pairs (i, j) that share a spring (and every diagonal block),
+    and for each spring the rows of its blocks (aa, ab, ba, bb; −1 for a
+    ground end)."""
+
+    def __init__(self, model):
+        n = model.n_bodies
+        sb = model.spring_bodies.astype(np.int64)
+        a, b = sb[:, 0], sb[:, 1]
+        inner = b < n
+        rows = np.concatenate([np.arange(n), a[inner], b[inner]])
+        cols = np.concatenate([np.arange(n), b[inner], a[inner]])
+        key = np.unique(rows * n + cols)
+        r, c = key // n, key % n
+        self.n = n
+        self.indptr = np.zeros(n + 1, dtype=np.int64)
+        np.cumsum(np.bincount(r, minlength=n), out=self.indptr[1:])
+        self.indices = c.astype(np.int64)
+
+        def slot(i, j):
+            return np.searchsorted(key, i * n + j)
+        S = len(sb)
+        self.slots = np.full((S, 4), -1, dtype=np.int64)
+        self.slots[:, 0] = slot(a, a)
+        self.slots[inner, 1] = slot(a[inner], b[inner])
+        self.slots[inner, 2] = slot(b[inner], a[inner])
+        self.slots[inner, 3] = slot(b[inner], b[inner])
+        self.nblocks = len(key)
+
+    def matrix(self, model, body_quat, spring_frames, spring_k):
+        """K (6N × 6N, CSR) with the bodies at body_quat (N+1, 4), spring
+        frames (S, 4) and stiffnesses (S, 3) [N/m]."""
+        rot = quat_matrix_np(body_quat)
+        F = quat_matrix_np(spring_frames)
+        data = np.zeros((self.nblocks, 6, 6))
+        _assemble(model.spring_bodies, model.spring_arm_a, model.spring_arm_b, rot, F,
+                  np.ascontiguousarray(spring_k), self.slots, data)
+        K = sp.bsr_matrix((data, self.indices, self.indptr), shape=(6 * self.n, 6 * self.n))
+        return K.tocsr()
+
+
+@nb.njit(cache=True)
+def _assemble(spring_bodies, arm_a, arm_b, rot, frames, k, slots, data):
+    n = rot.shape[0] - 1
+    G = np.zeros((2, 3, 6))
+    C = np.zeros((3, 3))
+    CG = np.zeros((2, 3, 6))
+    for s in range(spring_bodies.shape[0]):
+        a = spring_bodies[s, 0]
+        b = spring_bodies[s, 1]
+        Fm = frames[s]
+        for i in range(3):
+            for j in range(3):
+                C[i, j] = (Fm[i, 0] * k[s, 0] * Fm[j, 0] + Fm[i, 1] * k[s, 1] * Fm[j, 1]
+                           + Fm[i, 2] * k[s, 2] * Fm[j, 2])
+        for e in range(2):
+            body = a if e == 0 else b
+            arm = arm_a[s] if e == 0 else arm_b[s]
+            R = rot[body]
+            r0 = R[0, 0] * arm[0] + R[0, 1] * arm[1] + R[0, 2] * arm[2]
+            r1 = R[1, 0] * arm[0] + R[1, 1] * arm[1] + R[1, 2] * arm[2]
+            r2 = R[2, 0] * arm[0] + R[2, 1] * arm[1] + R[2, 2] * arm[2]
+            sg = -1.0 if e == 0 else 1.0
+            for i in range(3):
+                for j in range(6):
+                    G[e, i, j] = 0.0
+                G[e, i, i] = sg
+            # u + θ × r = u − [r]× θ: the rotation columns are −sg [r]×
+            G[e, 0, 4] = -sg * -r2
+            G[e, 0, 5] = -sg * r1
+            G[e, 1, 3] = -sg * r2
+            G[e, 1, 5] = -sg * -r0
+            G[e, 2, 3] = -sg * -r1
+            G[e, 2, 4] = -sg * r0
+            for i in range(3):
+                for j in range(6):
+                    CG[e, i, j] = C[i, 0] * G[e, 0, j] + C[i, 1] * G[e, 1, j] \
+                        + C[i, 2] * G[e, 2, j]
+        ground = b >= n
+        for q in range(4):
+            ea = 0 if q < 2 else 1
+            eb = 0 if (q == 0 or q == 2) else 1
+            if q > 0 and ground:
+                continue
+            blk = slots[s, q]
+            for i in range(6):
+                for j in range(6):
+                    data[blk, i, j] += (G[ea, 0, i] * CG[eb, 0, j] + G[ea, 1, i] * CG[eb, 1, j]
+                                        + G[ea, 2, i] * CG[eb, 2, j])
