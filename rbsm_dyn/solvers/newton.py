@@ -56,6 +56,7 @@ NEWTON_MAX_IT = 40      # iterations per increment before it is cut
 MAX_CUTS = 12           # halvings of one increment
 EASY_IT = 5             # an increment converged in this many lets the next grow
 OPEN_FRACTION = 1e-6    # secant stiffness of an open crack / the intact spring's
+LINE_SEARCH = (0.5, 4.0)   # bounds of the line-search step
 CG_MAX = 30             # CG iterations before the preconditioner is refactorised
 CG_RTOL = 1e-10         # relative residual of each linear solve
 
@@ -366,8 +367,36 @@ def _increment(nt, state, lam, goal, plan, tol, controlled):
             den = float(c @ dF)
             if abs(den) < 1e-300:
                 return False, lam, k, ratio
-            dlam = (gap - float(c @ dU)) / den
-            dU += dlam * dF
+            dU_r = dU.copy()
+            cr = float(c @ dU_r)
+
+            def step(alpha):
+                """α δU_r + δλ(α) δU_F, δλ keeping the linearised constraint."""
+                dl = (gap - alpha * cr) / den
+                return alpha * dU_r + dl * dF, dl
+            dU, dlam = step(1.0)
+            if not np.all(np.isfinite(dU)):
+                return False, lam, k, ratio
+            if k > 1:
+                # line search on the residual part of the step (the secant
+                # iteration converges linearly, its error along one softening
+                # mode): r(α) is affine in α to first order, least at
+                # α* = −r(0)·(r(1) − r(0))/|r(1) − r(0)|² (Crisfield vol. 1,
+                # §9.3), the constraint held for any α
+                saved = _save_motion(state)
+                res = []
+                for alpha in (0.0, 1.0):
+                    d, dl = step(alpha)
+                    apply_increment(m, state, d.reshape(nt.n, 6))
+                    nt.set_prescribed(state, lam + dl)
+                    res.append(nt.residual(state, lam + dl)[0][free] * nt.w[free])
+                    _restore(state, saved)
+                diff = res[1] - res[0]
+                dd = float(diff @ diff)
+                if dd > 0.0:
+                    alpha = -float(res[0] @ diff) / dd
+                    alpha = min(max(alpha, LINE_SEARCH[0]), LINE_SEARCH[1])
+                    dU, dlam = step(alpha)
             lam += dlam
         if not np.all(np.isfinite(dU)):
             return False, lam, k, ratio
@@ -401,6 +430,10 @@ def record_frame_keep(recorder, model, state, step, lam, ratio):
 
 _SAVED = ("body_pos", "body_quat", "body_rot", "body_dq", "spring_state", "spring_dp",
           "spring_kappa", "spring_dmg", "spring_wp", "spring_wf")
+
+
+def _save_motion(state):
+    return {k: getattr(state, k).copy() for k in _SAVED[:4]}
 
 
 def _save(state):
