@@ -48,14 +48,23 @@ class BlockPattern:
         self.slots[inner, 3] = slot(b[inner], b[inner])
         self.nblocks = len(key)
 
-    def matrix(self, model, body_quat, spring_frames, spring_k):
+    def matrix(self, model, body_quat, spring_frames, spring_k, force=None, gap=None):
         """K (6N × 6N, CSR) with the bodies at body_quat (N+1, 4), spring
-        frames (S, 4) and stiffnesses (S, 3) [N/m]."""
+        frames (S, 4) and stiffnesses (S, 3) [N/m]; with the spring forces
+        on body a and the world gaps (S, 3), plus the geometric stiffness
+        (_geometric; K is then not symmetric)."""
         rot = quat_matrix_np(body_quat)
         F = quat_matrix_np(spring_frames)
         data = np.zeros((self.nblocks, 6, 6))
-        _assemble(model.spring_bodies, model.spring_arm_a, model.spring_arm_b, rot, F,
-                  np.ascontiguousarray(spring_k), self.slots, data)
+        k = np.ascontiguousarray(spring_k)
+        _assemble(model.spring_bodies, model.spring_arm_a, model.spring_arm_b, rot, F, k,
+                  self.slots, data)
+        if force is not None:
+            sb = model.spring_bodies
+            r_a = np.einsum("sij,sj->si", rot[sb[:, 0]], model.spring_arm_a)
+            r_b = np.einsum("sij,sj->si", rot[sb[:, 1]], model.spring_arm_b)
+            _geometric(sb, r_a, r_b, F, k, np.ascontiguousarray(force),
+                       np.ascontiguousarray(gap), self.slots, data)
         K = sp.bsr_matrix((data, self.indices, self.indptr), shape=(6 * self.n, 6 * self.n))
         return K.tocsr()
 
@@ -108,3 +117,65 @@ def _assemble(spring_bodies, arm_a, arm_b, rot, frames, k, slots, data):
                 for j in range(6):
                     data[blk, i, j] += (G[ea, 0, i] * CG[eb, 0, j] + G[ea, 1, i] * CG[eb, 1, j]
                                         + G[ea, 2, i] * CG[eb, 2, j])
+
+
+@nb.njit(cache=True)
+def _geometric(spring_bodies, r_a, r_b, frames, k, f, d, slots, data):
+    """Initial-stress (geometric) blocks of the spring wrenches, −∂w/∂θ
+    (added to the material K of _assemble; not symmetric).  A spring with
+    world force f on body a (−f on b), world gap d = (x_b + r_b) − (x_a + r_a)
+    and C = F diag(k) Fᵀ:
+    * its frame turns with the mean rotation ω = ½(δθ_a + δθ_b):
+      δf = (−[f]× + C [d]×) ω (δf = [ω]× f − C [ω]× d);
+    * its arms turn with their bodies in the moments r × f:
+      δ(r_a × f) = (r_a fᵀ − (f·r_a) I) δθ_a, and −(r_b fᵀ − (f·r_b) I) δθ_b
+      for the moment −r_b × f on b (a × (b × c) = b (a·c) − c (a·b))."""
+    D = np.zeros((3, 3))
+    C = np.zeros((3, 3))
+    for s in range(spring_bodies.shape[0]):
+        a = spring_bodies[s, 0]
+        b = spring_bodies[s, 1]
+        ground = slots[s, 1] < 0
+        Fm = frames[s]
+        for i in range(3):
+            for j in range(3):
+                C[i, j] = (Fm[i, 0] * k[s, 0] * Fm[j, 0] + Fm[i, 1] * k[s, 1] * Fm[j, 1]
+                           + Fm[i, 2] * k[s, 2] * Fm[j, 2])
+        f0, f1, f2 = f[s, 0], f[s, 1], f[s, 2]
+        d0, d1, d2 = d[s, 0], d[s, 1], d[s, 2]
+        # D = −[f]× + C [d]×
+        Fx = np.array([[0.0, -f2, f1], [f2, 0.0, -f0], [-f1, f0, 0.0]])
+        Dx = np.array([[0.0, -d2, d1], [d2, 0.0, -d0], [-d1, d0, 0.0]])
+        for i in range(3):
+            for j in range(3):
+                D[i, j] = -Fx[i, j] + C[i, 0] * Dx[0, j] + C[i, 1] * Dx[1, j] + C[i, 2] * Dx[2, j]
+        ra = r_a[s]
+        rb = r_b[s]
+        Ra = np.array([[0.0, -ra[2], ra[1]], [ra[2], 0.0, -ra[0]], [-ra[1], ra[0], 0.0]])
+        Rb = np.array([[0.0, -rb[2], rb[1]], [rb[2], 0.0, -rb[0]], [-rb[1], rb[0], 0.0]])
+        RaD = Ra @ D
+        RbD = Rb @ D
+        fra = f0 * ra[0] + f1 * ra[1] + f2 * ra[2]
+        frb = f0 * rb[0] + f1 * rb[1] + f2 * rb[2]
+        # J[row block][col θ]: the derivative of the wrench; K_G = −J
+        for q in range(4):
+            if q > 0 and ground:
+                continue
+            blk = slots[s, q]
+            row_b = q >= 2          # rows of body b
+            col_b = q == 1 or q == 3
+            sg = -1.0 if row_b else 1.0
+            for i in range(3):
+                for j in range(3):
+                    # force rows: ±D/2 on θ columns (3 + j)
+                    data[blk, i, 3 + j] -= sg * 0.5 * D[i, j]
+                    # moment rows: ±[r]× D/2
+                    data[blk, 3 + i, 3 + j] -= sg * 0.5 * (RbD[i, j] if row_b else RaD[i, j])
+            if (not row_b) and (not col_b):
+                for i in range(3):
+                    for j in range(3):
+                        data[blk, 3 + i, 3 + j] -= ra[i] * f[s, j] - (fra if i == j else 0.0)
+            if row_b and col_b:
+                for i in range(3):
+                    for j in range(3):
+                        data[blk, 3 + i, 3 + j] += rb[i] * f[s, j] - (frb if i == j else 0.0)

@@ -7,7 +7,9 @@ full amplitude, f_springs the wrenches the spring kernels give at the
 present positions and rotations, from the spring history of the last
 converged increment: a trial, path-independent within the increment) is
 driven to zero on the free DOFs.  The iteration matrix is the secant
-stiffness Σ B_sᵀ C_s B_s (stiffness.py) in the present configuration: each
+stiffness Σ B_sᵀ C_s B_s (stiffness.py) in the present configuration,
+plus the geometric stiffness of the spring forces once rotations are
+finite (solvers/assembly.py): each
 spring's (k_n, k_s, k_t) times (1 − d) for a damaged spring, a closed
 or touching contact at full stiffness (its tangential springs too when it
 has friction), an open crack at 10⁻⁶ of it (Rots & Invernizzi
@@ -57,6 +59,7 @@ MAX_CUTS = 12           # halvings of one increment
 EASY_IT = 5             # an increment converged in this many lets the next grow
 OPEN_FRACTION = 1e-6    # secant stiffness of an open crack / the intact spring's
 LINE_SEARCH = (0.5, 4.0)   # bounds of the line-search step
+GEOMETRIC_ANGLE = 1e-3    # rotation [rad] beyond which the geometric stiffness is added
 CG_MAX = 30             # CG iterations before the preconditioner is refactorised
 CG_RTOL = 1e-10         # relative residual of each linear solve
 
@@ -147,6 +150,8 @@ class Newton:
 
     # -- linear solves -----------------------------------------------------
     lu = None
+    lu_symmetric = True
+    symmetric = True
     cg_iterations = 0
     factorizations = 0
 
@@ -160,20 +165,25 @@ class Newton:
         bn = np.linalg.norm(b)
         if bn == 0.0:
             return np.zeros_like(b)
-        if self.lu is not None:
+        if self.lu is not None and self.lu_symmetric == self.symmetric:
             count = [0]
 
             def cb(_):
                 count[0] += 1
             M = spla.LinearOperator(A.shape, matvec=self.lu.solve, dtype=float)
-            x, info = spla.cg(A, b, x0=self.lu.solve(b), rtol=CG_RTOL, maxiter=CG_MAX, M=M,
-                              callback=cb)
+            if self.symmetric:
+                x, info = spla.cg(A, b, x0=self.lu.solve(b), rtol=CG_RTOL, maxiter=CG_MAX,
+                                  M=M, callback=cb)
+            else:
+                x, info = spla.gmres(A, b, x0=self.lu.solve(b), rtol=CG_RTOL, restart=CG_MAX,
+                                     maxiter=1, M=M, callback=cb, callback_type="pr_norm")
             self.cg_iterations += count[0]
             if info == 0 and np.all(np.isfinite(x)):
                 return x
         try:
+            self.lu_symmetric = self.symmetric
             self.lu = spla.splu(sp.csc_matrix(A), permc_spec="COLAMD",
-                                options=dict(SymmetricMode=True))
+                                options=dict(SymmetricMode=self.symmetric))
         except RuntimeError:
             self.lu = None
             return None
@@ -207,7 +217,21 @@ class Newton:
         dq = quat_mul_np(state.body_quat[:n], _conj(m.body_quat0[:n]))
         dq = np.vstack([dq, [[1.0, 0, 0, 0]]])
         frames = quat_mul_np(dq[m.spring_bodies[:, 0]], m.spring_frame0)
-        K = self.pattern.matrix(m, state.body_quat, frames, k)
+        # the geometric stiffness of the spring forces (solvers/assembly.py
+        # _geometric) once some body has turned by more than GEOMETRIC_ANGLE:
+        # the exact Jacobian of an elastic residual (checked against finite
+        # differences, tests/test_newton.py), not symmetric
+        angle = 2.0 * np.arccos(np.clip(np.abs(dq[:n, 0]), 0.0, 1.0))
+        self.symmetric = not (angle.size and angle.max() > GEOMETRIC_ANGLE)
+        if self.symmetric:
+            K = self.pattern.matrix(m, state.body_quat, frames, k)
+        else:
+            sb = m.spring_bodies
+            R = state.body_rot
+            pa = state.body_pos[sb[:, 0]] + np.einsum("sij,sj->si", R[sb[:, 0]], m.spring_arm_a)
+            pb = state.body_pos[sb[:, 1]] + np.einsum("sij,sj->si", R[sb[:, 1]], m.spring_arm_b)
+            K = self.pattern.matrix(m, state.body_quat, frames, k, force=state.spring_force,
+                                    gap=pb - pa)
         return K if self.K_aux is None else (K + self.K_aux).tocsr()
 
 
