@@ -322,3 +322,53 @@ def test_buffered_frames_are_counted_when_written(tmp_path):
     h = open_history(path)
     _check_frames(h, 5)
     assert h.status.startswith("failed: stopped")
+
+
+def test_second_writer_of_a_file_is_refused_while_the_first_is_open(tmp_path):
+    """HistoryWriter holds path.lock (io/lock.py) until close(): a second
+    writer of the same path (before: it truncated the file under the first)
+    gets HistoryLocked naming this process; the first file stays intact."""
+    from rbsm_dyn.io.lock import HistoryLocked
+    path = tmp_path / "one.h5"
+    w = _writer(path)
+    _setup(w)
+    for k in range(3):
+        w.append_frame(10 * k, 1e-3 * k, _frame(k))
+    with pytest.raises(HistoryLocked) as exc:
+        _writer(path)
+    assert f"process {os.getpid()}" in str(exc.value) and str(path) in str(exc.value)
+    with pytest.raises(HistoryLocked):
+        HistoryWriter.reopen(path, frames=1)
+    w.close()
+    assert not os.path.exists(f"{path}.lock")
+    _check_frames(open_history(path), 3)
+
+
+def test_staged_writer_replaces_the_file_only_at_its_first_frame(tmp_path):
+    """stage=True writes .NAME.tmp-<pid>: closed (or discarded) without a
+    frame it vanishes and the old file keeps its bytes; its first frame
+    moves it to the name."""
+    path = tmp_path / "run.h5"
+    w = _writer(path)
+    _setup(w)
+    w.append_frame(0, 0.0, _frame(0))
+    w.close()
+    before = path.read_bytes()
+    tmp = tmp_path / f".run.h5.tmp-{os.getpid()}"
+    for end in ("close", "discard", "mark_failed"):
+        w = _writer(path, stage=True)
+        _setup(w)
+        assert w.file_path == str(tmp) and tmp.exists()
+        if end == "mark_failed":
+            w.mark_failed("refused")
+            end = "close"
+        getattr(w, end)()
+        assert not tmp.exists()
+        assert path.read_bytes() == before
+    w = _writer(path, stage=True)
+    _setup(w)
+    w.append_frame(0, 0.0, _frame(0))
+    assert not tmp.exists() and w.file_path == str(path)
+    w.append_frame(10, 1e-3, _frame(1))
+    w.close()
+    _check_frames(open_history(path), 2)

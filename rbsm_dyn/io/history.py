@@ -38,8 +38,10 @@ xarray=True)``) gives an xarray Dataset with dims ``frame``, ``body``,
 """
 from __future__ import annotations
 
+import errno
 import json
 import math
+import os
 from time import monotonic as _monotonic
 from dataclasses import dataclass
 from typing import Any, Mapping
@@ -48,7 +50,7 @@ import h5py
 import numpy as np
 
 __all__ = ["HistoryWriter", "History", "open_history", "frame_indices", "history_to_xarray",
-           "H5MD_VERSION"]
+           "H5MD_VERSION", "HistoryFileError"]
 
 H5MD_VERSION = (1, 1)
 _UNITS_MODULE_VERSION = (1, 0)
@@ -123,13 +125,26 @@ class HistoryWriter:
     swmr : write in SWMR mode (default).  Only turn it off on file systems
         without POSIX write ordering (some network file systems); readers in
         other processes then cannot open the file until it is closed.
+    lock : True (default): hold the lock file ``path + ".lock"``
+        (io/lock.py) from here to :meth:`close`, so that no other writer
+        touches the file meanwhile (:class:`rbsm_dyn.io.lock.HistoryLocked`
+        if a live process holds it); a held
+        :class:`rbsm_dyn.io.lock.HistoryLock` of ``path``: use it (the
+        caller releases it); False: no lock.
+    stage : write to the temporary ``.NAME.tmp-<pid>`` in the same directory
+        and rename it to ``path`` at the first :meth:`append_frame` (an
+        existing ``path`` is replaced only then); a writer closed or
+        :meth:`discard`-ed before its first frame removes the temporary
+        file and leaves ``path`` as it was.  Default False (``path`` is
+        overwritten at once).
     """
 
     def __init__(self, path, *, creator: str = "rbsm_dyn",
                  creator_version: str | None = None,
                  author: str = "rbsm_dyn user",
                  parameters: Mapping[str, Any] | None = None,
-                 swmr: bool = True, version: str | None = None):
+                 swmr: bool = True, version: str | None = None, lock=True,
+                 stage: bool = False):
         if creator_version is None:
             creator_version = version
         if creator_version is None:
@@ -141,9 +156,18 @@ class HistoryWriter:
         self._started = False
         self._status = "running"
         self._init_buffer()
+        self._f = None
+        self._take_lock(lock)
+        from .lock import temporary_path
+        self._staged = temporary_path(self.path) if stage else None
         # libver="latest" is required for SWMR; a larger chunk cache keeps a
         # ~1 MiB chunk in memory between appends.
-        self._f = h5py.File(self.path, "w", libver="latest", rdcc_nbytes=4 << 20)
+        try:
+            self._f = h5py.File(self._staged or self.path, "w", libver="latest",
+                                rdcc_nbytes=4 << 20)
+        except BaseException:
+            self._drop_lock()
+            raise
         try:
             f = self._f
             h5md = f.create_group("h5md")
@@ -166,18 +190,56 @@ class HistoryWriter:
             f.attrs["swmr"] = np.int8(self._swmr)
             f.flush()
         except BaseException:
-            self._f.close()
+            self.discard()
             raise
 
+    def _take_lock(self, lock) -> None:
+        from .lock import HistoryLock
+        self._lock, self._own_lock = None, False
+        if isinstance(lock, HistoryLock):
+            if not lock.held or os.path.abspath(lock.path) != os.path.abspath(self.path):
+                raise ValueError(f"{self.path}: the lock given is not held for this file")
+            self._lock = lock
+        elif lock:
+            self._lock, self._own_lock = HistoryLock(self.path).acquire(), True
+
+    def _drop_lock(self) -> None:
+        if self._own_lock and self._lock is not None:
+            self._lock.release()
+        self._lock = None
+
+    def discard(self) -> None:
+        """Close without marking anything; a staged file that has had no
+        frame yet is removed (``path`` stays as it was).  Idempotent."""
+        try:
+            if self._f is not None and self._f.id.valid:
+                self._f.close()
+        finally:
+            if self._staged is not None:
+                try:
+                    os.unlink(self._staged)
+                except OSError:
+                    pass
+                self._staged = None
+            self._drop_lock()
+
+    def _publish(self) -> None:
+        """Move a staged file to its name (at the first frame)."""
+        if self._staged is not None:
+            os.replace(self._staged, self.path)
+            self._staged = None
+
     @classmethod
-    def reopen(cls, path, *, frames: int, swmr: bool = True) -> "HistoryWriter":
+    def reopen(cls, path, *, frames: int, swmr: bool = True, lock=True) -> "HistoryWriter":
         """Open an existing history to append to it (restart,
         solvers/checkpoint.py): every series is cut back to ``frames``
         complete frames (rows after them -- frames written after the
         checkpoint, or half-written by a kill -- are dropped), ``status``
         becomes "running" again and SWMR starts.  A file left by a killed
         SWMR writer has its superblock "open for write" flags cleared first
-        (what ``h5clear -s`` does)."""
+        (what ``h5clear -s`` does): the lock (``lock``, as in
+        :class:`HistoryWriter`) is taken first, so a live writer's file is
+        never touched."""
         self = cls.__new__(cls)
         self.path = str(path)
         self._swmr = bool(swmr)
@@ -185,13 +247,20 @@ class HistoryWriter:
         self._started = False
         self._status = "running"
         self._init_buffer()
+        self._f = None
+        self._staged = None
+        self._take_lock(lock)
         try:
-            self._f = h5py.File(self.path, "r+", libver="latest", rdcc_nbytes=4 << 20)
-        except OSError as exc:
-            if "already open" not in str(exc):
-                raise
-            clear_status_flags(self.path)
-            self._f = h5py.File(self.path, "r+", libver="latest", rdcc_nbytes=4 << 20)
+            try:
+                self._f = h5py.File(self.path, "r+", libver="latest", rdcc_nbytes=4 << 20)
+            except OSError as exc:
+                if "already open" not in str(exc):
+                    raise
+                clear_status_flags(self.path)
+                self._f = h5py.File(self.path, "r+", libver="latest", rdcc_nbytes=4 << 20)
+        except BaseException:
+            self._drop_lock()
+            raise
         try:
             f = self._f
             n_file = int(f.attrs.get("frames", 0))
@@ -217,7 +286,7 @@ class HistoryWriter:
             f.flush()
             self._frames = int(frames)
         except BaseException:
-            self._f.close()
+            self.discard()
             raise
         self.start()
         return self
@@ -242,6 +311,12 @@ class HistoryWriter:
     @property
     def closed(self) -> bool:
         return self._f is None or not self._f.id.valid
+
+    @property
+    def file_path(self) -> str:
+        """Where the file is now: ``path``, or its temporary name while a
+        staged writer has no frame yet."""
+        return self._staged or self.path
 
     @property
     def status(self) -> str:
@@ -388,6 +463,7 @@ class HistoryWriter:
             arrays[p] = np.array(a, dtype=s.dtype, copy=True)
             self._pending_bytes += arrays[p].nbytes
         self._pending.append((int(step), float(time), arrays))
+        self._publish()            # a staged file takes its name at its first frame
         if (len(self._pending) >= self.buffer_frames
                 or self._pending_bytes >= self.buffer_bytes
                 or _monotonic() - self._last_write >= self.buffer_seconds):
@@ -435,8 +511,14 @@ class HistoryWriter:
         self._set_status(f"failed: {message}")
 
     def close(self) -> None:
-        """Set status "completed" (unless marked failed) and close. Idempotent."""
+        """Set status "completed" (unless marked failed) and close; release
+        the lock.  A staged file without frames is removed instead
+        (:meth:`discard`).  Idempotent."""
+        if self._staged is not None and not self._pending:
+            self.discard()
+            return
         if self.closed:
+            self._drop_lock()
             return
         try:
             self.flush_frames()
@@ -445,7 +527,10 @@ class HistoryWriter:
             else:
                 self._f.flush()
         finally:
-            self._f.close()
+            try:
+                self._f.close()
+            finally:
+                self._drop_lock()
 
     def __enter__(self) -> "HistoryWriter":
         return self
@@ -733,17 +818,160 @@ class History:
                 f"series={sorted(self.series)}, static={sorted(self.static)})")
 
 
-def _open_h5(path: str) -> h5py.File:
-    # SWMR read works for SWMR and ordinary files alike and is required for a
-    # file whose SWMR writer is running or was killed; fall back to a plain
-    # read-only open (e.g. the file is open, non-SWMR, in this same process).
-    try:
-        return h5py.File(path, "r", swmr=True)
-    except OSError as swmr_err:
-        try:
-            return h5py.File(path, "r")
+class HistoryFileError(OSError):
+    """A history file that cannot be read: not there, a directory, not
+    HDF5, truncated or damaged.  The message names the file."""
+
+    def __str__(self):
+        return str(self.strerror if self.strerror is not None else super().__str__())
+
+
+def _hdf5_signature_at(path: str) -> bool:
+    """Does the file carry the HDF5 signature where HDF5 looks for it
+    (offset 0, 512, 1024, 2048, ...: after a user block)?"""
+    size = os.path.getsize(path)
+    with open(path, "rb") as fh:
+        off = 0
+        while off + 8 <= size:
+            fh.seek(off)
+            if fh.read(8) == _SIGNATURE:
+                return True
+            off = 512 if off == 0 else 2 * off
+    return False
+
+
+_read_attempts_fn = None
+
+
+def _metadata_read_attempts(fapl, n: int) -> bool:
+    """H5Pset_metadata_read_attempts on an h5py file access list (h5py does
+    not wrap it): the HDF5 library h5py loaded, through ctypes.  False when
+    it cannot be found (then the library's default stays)."""
+    global _read_attempts_fn
+    if _read_attempts_fn is None:
+        import ctypes
+        import ctypes.util
+        import glob
+        _read_attempts_fn = False
+        candidates = []
+        try:                       # the copy this process has loaded (Linux)
+            with open("/proc/self/maps") as fh:
+                candidates += sorted({ln.split()[-1] for ln in fh
+                                      if "libhdf5" in ln and "hl" not in ln.rsplit("/", 1)[-1]
+                                      and ln.split()[-1].startswith("/")})
         except OSError:
-            raise swmr_err from None
+            pass
+        here = os.path.dirname(h5py.__file__)
+        candidates += glob.glob(os.path.join(here, os.pardir, "h5py.libs", "libhdf5-*"))
+        candidates += glob.glob(os.path.join(here, ".dylibs", "libhdf5.*"))
+        found = ctypes.util.find_library("hdf5")
+        if found:
+            candidates.append(found)
+        for c in candidates:
+            try:
+                fn = ctypes.CDLL(c).H5Pset_metadata_read_attempts
+            except (OSError, AttributeError):
+                continue
+            fn.argtypes = [ctypes.c_int64, ctypes.c_uint]
+            fn.restype = ctypes.c_int
+            _read_attempts_fn = fn
+            break
+    if not _read_attempts_fn:
+        return False
+    return _read_attempts_fn(fapl.id, int(n)) >= 0
+
+
+def _open_swmr(path: str, attempts: int | None) -> h5py.File:
+    """A SWMR read-only open; ``attempts``: metadata read attempts (HDF5
+    retries a metadata block whose checksum fails, with growing sleeps, 100
+    times by default in SWMR mode: right while a writer is running, for
+    ever on a damaged file)."""
+    if attempts is None:
+        return h5py.File(path, "r", swmr=True)
+    fapl = h5py.h5p.create(h5py.h5p.FILE_ACCESS)
+    fapl.set_fclose_degree(h5py.h5f.CLOSE_STRONG)
+    if not _metadata_read_attempts(fapl, attempts):
+        return h5py.File(path, "r", swmr=True)
+    fid = h5py.h5f.open(os.fsencode(path), h5py.h5f.ACC_RDONLY | h5py.h5f.ACC_SWMR_READ,
+                        fapl=fapl)
+    return h5py.File(fid)
+
+
+def _h5_message(exc: BaseException) -> str:
+    msg = str(exc.args[0]) if isinstance(exc, KeyError) and exc.args else str(exc)
+    if msg.startswith("Unable to synchronously open file (") and msg.endswith(")"):
+        msg = msg[len("Unable to synchronously open file ("):-1]
+    return msg
+
+
+def _open_h5(path: str, *, writer_alive: bool | None = None) -> h5py.File:
+    """Open a history read-only, failing fast (HistoryFileError naming the
+    file) when it is missing, a directory, not HDF5, truncated or damaged.
+
+    A plain read-only open comes first: it checks the superblock and the
+    file's length at once.  A file whose SWMR writer is running or was
+    killed refuses it ("already open for write"); it is opened in SWMR mode
+    then -- with HDF5's patient metadata retries only when a live writer
+    holds the lock (io/lock.py; ``writer_alive`` overrides the check), and
+    with a single read attempt for a killed run's file, so that a damaged
+    file gives an error at once instead of retrying for ever."""
+    path = os.fspath(path)
+    if os.path.isdir(path):
+        raise HistoryFileError(errno.EISDIR, f"{path}: is a directory, not a history file")
+    if not os.path.exists(path):
+        raise HistoryFileError(errno.ENOENT, f"{path}: no such file")
+    try:
+        if not _hdf5_signature_at(path):
+            raise HistoryFileError(errno.EINVAL, f"not an HDF5 file: {path}")
+    except PermissionError:
+        raise HistoryFileError(errno.EACCES, f"{path}: permission denied") from None
+    try:
+        return h5py.File(path, "r")
+    except OSError as exc:
+        plain_err = exc
+    msg = str(plain_err)
+    if writer_alive is None:
+        from .lock import writer_alive as _alive
+        writer_alive = _alive(path)
+    if not writer_alive and "already open for write" not in msg:
+        raise HistoryFileError(errno.EIO, f"{path}: cannot read the history file "
+                                          f"({_h5_message(plain_err)})") from None
+    try:
+        return _open_swmr(path, None if writer_alive else 1)
+    except OSError as exc:
+        raise HistoryFileError(errno.EIO, f"{path}: cannot read the history file "
+                                          f"({_h5_message(exc)})") from None
+
+
+def input_problem(path) -> str | None:
+    """Why ``path`` cannot be a history to read (a directory, missing), or
+    None; for the commands export, render, plot."""
+    path = os.fspath(path)
+    if os.path.isdir(path):
+        return f"{path}: is a directory, not a history file"
+    if not os.path.exists(path):
+        return f"{path}: no such file"
+    if not os.path.isfile(path):
+        return f"{path}: not a regular file"
+    return None
+
+
+def require_rbsm_history(path) -> None:
+    """HistoryFileError unless history ``path`` was written by rbsm_dyn
+    (attribute name of /h5md/creator), for the commands that need its
+    layout (export, render, plot); reads nothing else."""
+    f = _open_h5(os.fspath(path))
+    try:
+        with f:
+            g = f.get("h5md/creator")
+            creator = _attr_str(g, "name") if isinstance(g, h5py.Group) else None
+    except (OSError, RuntimeError, KeyError) as exc:
+        raise HistoryFileError(errno.EIO, f"{path}: cannot read the history file, it is "
+                                          f"damaged ({_h5_message(exc)})") from None
+    if creator != "rbsm_dyn":
+        what = (f"its H5MD creator is {creator!r}" if creator is not None
+                else "it has no /h5md/creator")
+        raise HistoryFileError(errno.EINVAL, f"{path}: not an rbsm_dyn history ({what})")
 
 
 def frame_indices(frames, n: int) -> np.ndarray:
@@ -794,77 +1022,93 @@ def open_history(path, *, frames=None, xarray: bool = False):
     :class:`History`.
     """
     h = History(path)
-    with _open_h5(str(path)) as f:
-        frames_attr = f.attrs.get("frames")
-        h.status = _attr_str(f, "status")
-        if "h5md" in f:
-            g = f["h5md"]
-            if "version" in g.attrs:
-                h.h5md_version = tuple(int(v) for v in np.ravel(g.attrs["version"]))
-            if "creator" in g:
-                h.creator = _attr_str(g["creator"], "name")
-                h.creator_version = _attr_str(g["creator"], "version")
-            if "author" in g:
-                h.author = _attr_str(g["author"], "name")
-        if "parameters" in f:
-            for name, ds in f["parameters"].items():
-                if isinstance(ds, h5py.Dataset):
-                    v = _read_dataset(ds)
-                    h.parameters[name] = v if isinstance(v, str) else json.dumps(
-                        v.tolist() if isinstance(v, np.ndarray) else v)
+    f = _open_h5(str(path))
+    try:
+        with f:
+            _read_into(h, f, frames)
+    except HistoryFileError:
+        raise
+    except (OSError, RuntimeError, KeyError, ValueError, TypeError) as exc:
+        if isinstance(exc, KeyError) and not str(exc).strip("'\"").startswith("Unable to"):
+            raise
+        # h5py's errors on damaged metadata or data (a bit flipped ...)
+        raise HistoryFileError(errno.EIO, f"{path}: cannot read the history file, it is "
+                                          f"damaged ({_h5_message(exc)})") from None
+    return h.to_xarray() if xarray else h
 
-        # discover elements ---------------------------------------------
-        series_groups: dict[str, h5py.Group] = {}
-        static_ds: dict[str, h5py.Dataset] = {}
 
-        def visit(name: str, obj) -> None:
-            top = name.split("/", 1)[0]
-            if top in _RESERVED:
-                return
-            if isinstance(obj, h5py.Group):
-                if isinstance(obj.get("value"), h5py.Dataset) and "step" in obj:
-                    series_groups[name] = obj
-            elif isinstance(obj, h5py.Dataset):
-                static_ds[name] = obj
+def _read_into(h: "History", f: h5py.File, frames) -> None:
+    """open_history's reading of the open file ``f`` into ``h``."""
+    frames_attr = f.attrs.get("frames")
+    h.status = _attr_str(f, "status")
+    if "h5md" in f:
+        g = f["h5md"]
+        if "version" in g.attrs:
+            h.h5md_version = tuple(int(v) for v in np.ravel(g.attrs["version"]))
+        if "creator" in g:
+            h.creator = _attr_str(g["creator"], "name")
+            h.creator_version = _attr_str(g["creator"], "version")
+        if "author" in g:
+            h.author = _attr_str(g["author"], "name")
+    if "parameters" in f:
+        for name, ds in f["parameters"].items():
+            if isinstance(ds, h5py.Dataset):
+                v = _read_dataset(ds)
+                h.parameters[name] = v if isinstance(v, str) else json.dumps(
+                    v.tolist() if isinstance(v, np.ndarray) else v)
 
-        f.visititems(visit)
-        for sp in series_groups:
-            for k in [k for k in static_ds if k.startswith(sp + "/")]:
-                del static_ds[k]
+    # discover elements ---------------------------------------------
+    series_groups: dict[str, h5py.Group] = {}
+    static_ds: dict[str, h5py.Dataset] = {}
 
-        lengths = {p: g["value"].shape[0] for p, g in series_groups.items()}
-        if frames_attr is not None:
-            T = int(frames_attr)
-        else:
-            T = min(lengths.values()) if lengths else 0
-        h.frames_in_file = T
-        idx = frame_indices(frames, T)
-        h.frame_index = idx
-        h.frames = len(idx)
+    def visit(name: str, obj) -> None:
+        top = name.split("/", 1)[0]
+        if top in _RESERVED:
+            return
+        if isinstance(obj, h5py.Group):
+            if isinstance(obj.get("value"), h5py.Dataset) and "step" in obj:
+                series_groups[name] = obj
+        elif isinstance(obj, h5py.Dataset):
+            static_ds[name] = obj
 
-        for p, g in sorted(series_groups.items()):
-            n = min(T, lengths[p])
-            ip = idx[idx < n]
-            value = _take(g["value"], ip)
-            h.series[p] = value
-            h.units[p] = _attr_str(g["value"], "unit", "1")
-            st = _read_step_time(g, "step", n)
-            tm = _read_step_time(g, "time", n)
-            h.series_step[p] = np.asarray(st[ip] if st is not None else ip, np.int64)
-            h.series_time[p] = np.asarray(tm[ip] if tm is not None else np.full(len(ip), np.nan),
-                                          np.float64)
-            if n > 0:
-                if p == f"{History.BODIES}/position":
-                    h.position0 = value[0] if len(ip) and ip[0] == 0 else g["value"][0]
-                elif p == f"{History.BODIES}/orientation":
-                    h.orientation0 = value[0] if len(ip) and ip[0] == 0 else g["value"][0]
-                elif p.startswith("observables/") and g["value"].ndim == 1:
-                    h.observables0[p[len("observables/"):]] = float(
-                        value[0] if len(ip) and ip[0] == 0 else g["value"][0])
-        for p, ds in sorted(static_ds.items()):
-            h.static[p] = _read_dataset(ds)
-            if "unit" in ds.attrs:
-                h.units[p] = _attr_str(ds, "unit")
+    f.visititems(visit)
+    for sp in series_groups:
+        for k in [k for k in static_ds if k.startswith(sp + "/")]:
+            del static_ds[k]
+
+    lengths = {p: g["value"].shape[0] for p, g in series_groups.items()}
+    if frames_attr is not None:
+        T = int(frames_attr)
+    else:
+        T = min(lengths.values()) if lengths else 0
+    h.frames_in_file = T
+    idx = frame_indices(frames, T)
+    h.frame_index = idx
+    h.frames = len(idx)
+
+    for p, g in sorted(series_groups.items()):
+        n = min(T, lengths[p])
+        ip = idx[idx < n]
+        value = _take(g["value"], ip)
+        h.series[p] = value
+        h.units[p] = _attr_str(g["value"], "unit", "1")
+        st = _read_step_time(g, "step", n)
+        tm = _read_step_time(g, "time", n)
+        h.series_step[p] = np.asarray(st[ip] if st is not None else ip, np.int64)
+        h.series_time[p] = np.asarray(tm[ip] if tm is not None else np.full(len(ip), np.nan),
+                                      np.float64)
+        if n > 0:
+            if p == f"{History.BODIES}/position":
+                h.position0 = value[0] if len(ip) and ip[0] == 0 else g["value"][0]
+            elif p == f"{History.BODIES}/orientation":
+                h.orientation0 = value[0] if len(ip) and ip[0] == 0 else g["value"][0]
+            elif p.startswith("observables/") and g["value"].ndim == 1:
+                h.observables0[p[len("observables/"):]] = float(
+                    value[0] if len(ip) and ip[0] == 0 else g["value"][0])
+    for p, ds in sorted(static_ds.items()):
+        h.static[p] = _read_dataset(ds)
+        if "unit" in ds.attrs:
+            h.units[p] = _attr_str(ds, "unit")
 
     # frame step/time: from the positions if any, else any full-length series
     if f"{History.BODIES}/position" in h.series and \
@@ -882,7 +1126,6 @@ def open_history(path, *, frames=None, xarray: bool = False):
             t = h.series_time[p]
             if t.shape != h.time.shape or not np.array_equal(t, h.time):
                 h.observable_time[name] = t
-    return h.to_xarray() if xarray else h
 
 
 # ==================================================================== xarray

@@ -39,7 +39,6 @@ import json
 import signal
 import time as _time
 
-import h5py
 import numpy as np
 
 GROUP = "checkpoint"
@@ -183,7 +182,8 @@ class SignalGuard:
 def checkpoint_info(path):
     """(step, time, frames) of the last valid checkpoint in a history file,
     or None (no checkpoint yet).  Works on a file still being written."""
-    with h5py.File(str(path), "r", swmr=True) as f:
+    from ..io.history import _open_h5
+    with _open_h5(str(path)) as f:
         if GROUP not in f:
             return None
         g = f[GROUP]
@@ -194,29 +194,44 @@ def checkpoint_info(path):
         return int(s["step"][()]), float(s["time"][()]), int(s["frames"][()])
 
 
-def read_checkpoint(path):
+def read_checkpoint(path, *, writer_alive=None):
     """The last valid checkpoint: dict of the State arrays and ``step``,
     ``dt``, ``time``, ``frames``, ``e0``; and the resolved case (JSON
-    text) of the run.  Raises RestartError."""
+    text) of the run.  Raises RestartError (naming the file: missing, not
+    HDF5, truncated or damaged -- at once, io/history.py _open_h5).
+    ``writer_alive=False``: the caller holds the file's lock (a restart),
+    so no writer can be waited for."""
+    from ..io.history import _open_h5
     try:
-        f = h5py.File(str(path), "r", swmr=True)
+        f = _open_h5(str(path), writer_alive=writer_alive)
     except (OSError, ValueError) as exc:
-        raise RestartError(f"{path}: cannot open the history file ({exc})") from None
-    with f:
-        if GROUP not in f:
-            raise RestartError(f"{path}: no /checkpoint group (not a dynamic run's history, "
-                               "or written by an older rbsm_dyn)")
-        g = f[GROUP]
-        cur = int(g.attrs["current"])
-        if cur < 0:
-            raise RestartError(f"{path}: holds no checkpoint yet (the run stopped before "
-                               "writing one); run the case again from the start")
-        s = g[SLOTS[cur]]
-        out = {a: s[a][()] for a in ARRAYS}
-        for a in ("step", "dt", "time", "frames", "e0"):
-            out[a] = s[a][()].item()
-        case = f["parameters/case"].asstr()[()] if "parameters/case" in f else None
-        frames_in_file = int(f.attrs.get("frames", 0))
+        raise RestartError(f"--restart {exc}") from None
+    try:
+        with f:
+            return _read_checkpoint(f, path)
+    except RestartError:
+        raise
+    except (OSError, RuntimeError, KeyError, ValueError, TypeError) as exc:
+        raise RestartError(f"--restart {path}: cannot read the checkpoint, the file is "
+                           f"damaged ({exc})") from None
+
+
+def _read_checkpoint(f, path):
+    """The checkpoint of the open history ``f`` (read_checkpoint)."""
+    if GROUP not in f:
+        raise RestartError(f"{path}: no /checkpoint group (not a dynamic run's history, "
+                           "or written by an older rbsm_dyn)")
+    g = f[GROUP]
+    cur = int(g.attrs["current"])
+    if cur < 0:
+        raise RestartError(f"{path}: holds no checkpoint yet (the run stopped before "
+                           "writing one); run the case again from the start")
+    s = g[SLOTS[cur]]
+    out = {a: s[a][()] for a in ARRAYS}
+    for a in ("step", "dt", "time", "frames", "e0"):
+        out[a] = s[a][()].item()
+    case = f["parameters/case"].asstr()[()] if "parameters/case" in f else None
+    frames_in_file = int(f.attrs.get("frames", 0))
     if out["frames"] > frames_in_file:
         raise RestartError(f"{path}: the checkpoint counts {out['frames']} frames but the "
                            f"file has {frames_in_file}")
@@ -252,14 +267,16 @@ def _drop_free(d):
     return d
 
 
-def load_for_restart(case, model, path):
+def load_for_restart(case, model, path, *, writer_alive=None):
     """Check that ``path`` can continue ``case`` and return its checkpoint
-    as a restored State.  Raises RestartError naming the problem."""
+    as a restored State.  Raises RestartError naming the problem.
+    ``writer_alive=False``: the caller holds the history's lock
+    (read_checkpoint)."""
     from ..model import new_state
     if case.solver.mode != "dynamic":
         raise RestartError(f"--restart: solver.mode {case.solver.mode} has no checkpoints "
                            "(only dynamic runs can be restarted; run the case again)")
-    data, case_json = read_checkpoint(path)
+    data, case_json = read_checkpoint(path, writer_alive=writer_alive)
     if case_json is not None:
         then = _drop_free(json.loads(case_json))
         now = _drop_free(json.loads(json.dumps(case.resolved())))

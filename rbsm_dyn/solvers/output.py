@@ -205,7 +205,12 @@ def surface_load_levers(case, model):
 class Recorder:
     """Opens the history, writes the static part, appends frames."""
 
-    def __init__(self, case, model, path, *, threads, extra_observables=()):
+    def __init__(self, case, model, path, *, threads, extra_observables=(), lock=True,
+                 stage=False):
+        """lock, stage: as in io/history.HistoryWriter (the command line
+        holds the lock itself and stages the file: a run that fails its
+        checks before the first frame leaves an existing ``path`` as it
+        was)."""
         self.case = case
         self.model = model
         out = case.output
@@ -220,7 +225,15 @@ class Recorder:
                         "case": json.dumps(case.resolved()),
                         "versions": json.dumps(versions()),
                         "threads": str(threads),
-                        "materials": json.dumps(model.materials)})
+                        "materials": json.dumps(model.materials)},
+            lock=lock, stage=stage)
+        try:
+            self._setup(case, model, w, extra_observables)
+        except BaseException:
+            w.discard()          # (Ctrl-C while the static part is written, ...)
+            raise
+
+    def _setup(self, case, model, w, extra_observables):
         w.set_buffering(**frame_buffer(case))
         m, mesh = model, model.mesh
         w.write_static("particles/bodies/mass", m.body_mass, "kg")
@@ -274,7 +287,7 @@ class Recorder:
         self._delta = np.zeros((m.n_springs, 3))
 
     @classmethod
-    def resume(cls, case, model, path, frames, *, extra_observables=()):
+    def resume(cls, case, model, path, frames, *, extra_observables=(), lock=True):
         """A Recorder appending to an existing history (restart,
         solvers/checkpoint.py): the file is cut back to ``frames`` frames."""
         self = cls.__new__(cls)
@@ -289,12 +302,12 @@ class Recorder:
                             "damping": "J", "plastic": "J", "fracture": "J",
                             "n_broken": "1", "crack_area": "m2"}
         self.observables.update(dict(extra_observables))
-        self.writer = HistoryWriter.reopen(path, frames=frames)
+        self.writer = HistoryWriter.reopen(path, frames=frames, lock=lock)
         self.writer.set_buffering(**frame_buffer(case))
         expected = {FIELD_SERIES[n][0] for n in self.fields} | \
             {f"observables/{n}" for n in list(self.observables) + list(self.probes)}
         if set(self.writer.series_paths) != expected:
-            self.writer.h5file.close()
+            self.writer.discard()
             raise ValueError(f"{path}: its series {sorted(self.writer.series_paths)} are not "
                              f"those of the case {sorted(expected)}")
         self._delta = np.zeros((model.n_springs, 3))
