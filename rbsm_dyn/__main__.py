@@ -3,11 +3,17 @@ python -m rbsm_dyn export|render|plot RUN.h5 [options] (post-processing of a
 history: rbsm_dyn/io/export.py, rbsm_dyn/io/render.py), and
 python -m rbsm_dyn bench [--bodies N --steps K --threads T --physics P] (bench.py).
 
-Exit status: 0 success, 2 bad case (one message naming file, line and key),
-1 failed run (divergence or no convergence, with step and time; the
-history file stays readable up to the failure), 130/143 stopped by
-SIGINT/SIGTERM after writing a checkpoint (dynamic runs;
-``CASE.yaml --restart RUN.h5`` continues it: solvers/checkpoint.py).
+Exit status: 0 success, 2 bad case or option (one message naming file,
+line and key, or the option and its value; also: the output is locked by a
+live run), 1 failed run (divergence or no convergence, with step and time;
+the history file stays readable up to the failure), 130/143 stopped by
+SIGINT/SIGTERM (dynamic runs after writing a checkpoint;
+``CASE.yaml --restart RUN.h5`` continues it: solvers/checkpoint.py; Ctrl-C
+before the run, during imports or the build, exits 130 too).
+
+A run holds the lock file RUN.h5.lock while it writes (io/lock.py) and
+writes to .RUN.h5.tmp-<pid> until its first frame, then renames it to
+RUN.h5: a run refused before that leaves an existing RUN.h5 untouched.
 """
 import argparse
 import os
@@ -77,6 +83,55 @@ def _post(command, argv):
 
 
 def main(argv=None):
+    """The command line; returns the exit status.  Ctrl-C at any moment
+    outside a run's checkpointed loop ends it with 130 and one line, no
+    traceback."""
+    try:
+        return _main(argv)
+    except KeyboardInterrupt:
+        try:
+            print("rbsm_dyn: interrupted", file=sys.stderr)
+            sys.stderr.flush()
+            sys.stdout.flush()
+        except Exception:
+            pass
+        if argv is None:
+            # as a program: CPython marks a KeyboardInterrupt that went through
+            # code run by PyRun_* (inside some imports) as unhandled and, even
+            # though it was caught here, ends the process by SIGINT (-2) at
+            # exit; the files are closed and the lock released: leave now
+            os._exit(130)
+        return 130
+
+
+def _option_problem(args):
+    """Why an option of a run/check/info cannot be used (None if fine)."""
+    if args.threads is not None and args.threads < 1:
+        return f"--threads must be at least 1 (got {args.threads})"
+    if args.max_steps is not None and args.max_steps < 0:
+        return f"--max-steps must be 0 or more (got {args.max_steps})"
+    if args.out is not None and not args.out.strip():
+        return f"--out needs a file name (got {args.out!r})"
+    if args.restart is not None and not args.restart.strip():
+        return f"--restart needs a history file (got {args.restart!r})"
+    return None
+
+
+def _set_threads(threads, source):
+    """Set Numba's thread count; a count above the threads Numba has
+    (NUMBA_NUM_THREADS, the machine's cores by default) is clamped with a
+    warning.  Returns the count in use (recorded in the history)."""
+    import numba
+    if threads:
+        top = numba.config.NUMBA_NUM_THREADS
+        if int(threads) > top:
+            print(f"rbsm_dyn: warning: {source} {threads} is more than the {top} threads "
+                  f"available (NUMBA_NUM_THREADS); using {top}", file=sys.stderr)
+        numba.set_num_threads(max(1, min(int(threads), top)))
+    return numba.get_num_threads()
+
+
+def _main(argv=None):
     argv = sys.argv[1:] if argv is None else list(argv)
     for stream in (sys.stdout, sys.stderr):   # a file name that is not UTF-8 prints escaped
         if getattr(stream, "errors", None) == "strict" and hasattr(stream, "reconfigure"):
@@ -94,7 +149,10 @@ def main(argv=None):
             return 2
     else:
         command, path = "run", args.command_or_case
-    threads = args.threads
+    problem = _option_problem(args)
+    if problem:
+        print(f"rbsm_dyn: {problem}", file=sys.stderr)
+        return 2
     from .case import CaseError, load_case
     try:
         case = load_case(path)
@@ -104,11 +162,38 @@ def main(argv=None):
     except OSError as exc:
         print(f"rbsm_dyn: {path}: cannot read the case file ({exc.strerror})", file=sys.stderr)
         return 2
-    if threads is None:
-        threads = getattr(case.solver, "threads", None)
-    import numba
-    if threads:
-        numba.set_num_threads(min(int(threads), numba.config.NUMBA_NUM_THREADS))
+    lock = None
+    if command == "run":
+        # where the run writes may be refused before the (long) build
+        problem = _output_problem(case, args, path)
+        if problem:
+            print(f"rbsm_dyn: {problem}", file=sys.stderr)
+            return 2
+        from .io.lock import HistoryLock, HistoryLocked
+        out = args.restart or args.out or case.output.file
+        try:
+            lock = HistoryLock(out).acquire()
+        except HistoryLocked as exc:
+            what = "--restart" if args.restart else "--out" if args.out else "output.file"
+            print(f"rbsm_dyn: {what} {exc}", file=sys.stderr)
+            return 2
+        except OSError as exc:
+            print(f"rbsm_dyn: {out}: cannot make the lock file {out}.lock "
+                  f"({exc.strerror or exc})", file=sys.stderr)
+            return 2
+    try:
+        return _build_and_go(command, path, case, args, lock)
+    finally:
+        if lock is not None:
+            lock.release()
+
+
+def _build_and_go(command, path, case, args, lock):
+    from .case import CaseError
+    if args.threads is not None:
+        threads = _set_threads(args.threads, "--threads")
+    else:
+        threads = _set_threads(getattr(case.solver, "threads", None), "solver.threads")
     from .model import build_model
     cells = _cell_estimate(case)
     if cells > BUILD_NOTICE_CELLS and not getattr(args, "quiet", False):
@@ -124,18 +209,43 @@ def main(argv=None):
         return 2
     for note in model.warnings:
         print(f"rbsm_dyn: warning: {note}", file=sys.stderr)
+    try:
+        _preflight(case, model)
+    except CaseError as exc:
+        print(f"rbsm_dyn: {exc}", file=sys.stderr)
+        return 2
     if command == "check":
         print(f"{path}: ok ({model.n_bodies} bodies, {model.n_springs} spring points)")
         for line in _selections(case, model):
             print(f"  {line}")
         return 0
     if command == "info":
-        return _info(case, model, threads or numba.get_num_threads())
-    problem = _output_problem(case, args, path)
-    if problem:
-        print(f"rbsm_dyn: {problem}", file=sys.stderr)
-        return 2
-    return _run(case, model, args, threads or numba.get_num_threads())
+        return _info(case, model, threads)
+    return _run(case, model, args, threads, lock)
+
+
+def _preflight(case, model):
+    """The checks a run would otherwise make only once it has started
+    (CaseError): a model that cannot be run (no springs, a body without
+    mass), a fixed solver.dt above the stable estimate, more modes than the
+    model has free DOFs, a probe point in no cell.  Made before any file is
+    touched (and by check and info)."""
+    from .solvers import explicit
+    explicit.check_model(case, model)
+    mode = case.solver.mode
+    if mode == "dynamic":
+        explicit.choose_dt(case, model)
+    elif mode == "modal":
+        from .physics.integrate import FREE
+        nf = int((model.dof_kind.reshape(-1) == FREE).sum())
+        if case.solver.modes >= nf:
+            # (natural_modes also counts the rigid-body modes: checked at run time)
+            raise case.error(("solver", "modes"), f"asked for {case.solver.modes} modes, but "
+                             f"the model has only {nf} free DOFs")
+    from .solvers.output import probe_plan
+    for plan in probe_plan(model, dict(case.output.probes or {}), case).values():
+        if plan[0] == "error":
+            raise plan[1]
 
 
 #: builds of more cells than this announce themselves on stderr
@@ -166,7 +276,21 @@ def _output_problem(case, args, case_path):
     its directory is missing or not writable, it is a directory, or it is
     the case file itself (which the run would overwrite)."""
     if getattr(args, "restart", None):
-        return None                     # appends to an existing history
+        out = args.restart              # appends to an existing history
+        if args.out and os.path.abspath(args.out) != os.path.abspath(out):
+            return (f"--restart {out} appends to its own file: leave out --out "
+                    f"(got --out {args.out})")
+        if "\0" in out:
+            return f"--restart {out!r}: a file name cannot contain a NUL character"
+        if os.path.isdir(out):
+            return f"--restart {out}: is a directory, not a history file"
+        if not os.path.isfile(out):
+            return f"--restart {out}: no such file"
+        if not _writable(out):
+            return f"--restart {out}: the file is read-only"
+        if not os.access(os.path.dirname(os.path.abspath(out)), os.W_OK):
+            return f"--restart {out}: its directory is not writable (lock file {out}.lock)"
+        return None
     out = args.out or case.output.file
 
     def where(message):
@@ -184,7 +308,20 @@ def _output_problem(case, args, case_path):
         return where(f"directory {folder} is not writable")
     if os.path.exists(out) and os.path.samefile(out, case_path):
         return where("is the case file itself (the run would overwrite it)")
+    if os.path.exists(out) and not _writable(out):
+        return where("the file exists and is read-only (make it writable or delete it to "
+                     "replace it)")
     return None
+
+
+def _writable(path):
+    """A file the user may write: permitted, and with a write bit set (root
+    is permitted everything: a file without write bits is still read-only
+    to the run, as the user meant)."""
+    import stat
+    return os.access(path, os.W_OK) and bool(os.stat(path).st_mode & (stat.S_IWUSR |
+                                                                      stat.S_IWGRP |
+                                                                      stat.S_IWOTH))
 
 
 def _info(case, model, threads):
@@ -258,7 +395,8 @@ EXTRA_OBSERVABLES = {"static": {"residual": "1"}, "linear": {"residual": "1"},
                      "modal": {"frequency": "Hz"}}
 
 
-def _run(case, model, args, threads):
+def _run(case, model, args, threads, lock):
+    """Run the case; ``lock``: the held io/lock.HistoryLock of the output."""
     from .case import CaseError
     from .solvers import checkpoint, explicit
     from .solvers.output import Recorder
@@ -266,21 +404,23 @@ def _run(case, model, args, threads):
     extra = EXTRA_OBSERVABLES.get(case.solver.mode, {})
     restart = None
     if args.restart:
-        # continue RUN.h5 from its checkpoint (solvers/checkpoint.py)
-        if args.out and os.path.abspath(args.out) != os.path.abspath(args.restart):
-            print("rbsm_dyn: --restart appends to its own file; leave out --out",
-                  file=sys.stderr)
-            return 2
+        # continue RUN.h5 from its checkpoint (solvers/checkpoint.py); this
+        # process holds its lock, so no writer is alive
         out = args.restart
         try:
-            restart = checkpoint.load_for_restart(case, model, out)
+            restart = checkpoint.load_for_restart(case, model, out, writer_alive=False)
             rec = Recorder.resume(case, model, out, restart[1]["frames"],
-                                  extra_observables=extra)
+                                  extra_observables=extra, lock=lock)
         except (checkpoint.RestartError, ValueError, OSError) as exc:
             print(f"rbsm_dyn: {exc}", file=sys.stderr)
             return 2
     else:
-        rec = Recorder(case, model, out, threads=threads, extra_observables=extra)
+        try:
+            rec = Recorder(case, model, out, threads=threads, extra_observables=extra,
+                           lock=lock, stage=True)
+        except OSError as exc:
+            print(f"rbsm_dyn: {out}: cannot write the history file ({exc})", file=sys.stderr)
+            return 2
     progress = Progress(not args.quiet and sys.stderr.isatty() or (not args.quiet and os.environ.get("RBSM_PROGRESS")))
     t0 = time.perf_counter()
     try:
@@ -340,4 +480,8 @@ def _run(case, model, args, threads):
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    try:
+        code = main()
+    except KeyboardInterrupt:           # (between main's return and here)
+        os._exit(130)
+    sys.exit(code)

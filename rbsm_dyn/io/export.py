@@ -41,7 +41,7 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 
 from .geometry import CellGeometry, frame_state, rotation_vectors
-from .history import History, open_history
+from .history import History, input_problem, open_history, require_rbsm_history
 
 __all__ = ["export", "cells_mesh", "faces_mesh", "write_pvd", "stress_measures",
            "STRESS_MEASURES"]
@@ -204,6 +204,7 @@ def export(path, out_dir=None, *, every: int = 1, frames=None, log=None) -> dict
     if every < 1:
         raise ValueError(f"--every must be >= 1 (got {every})")
     out = Path(out_dir) if out_dir is not None else path.with_name(path.stem + "_vtk")
+    require_rbsm_history(path)
     head = open_history(path, frames=[])
     geom = head.geometry()
     T = head.frames_in_file
@@ -254,8 +255,9 @@ def add_arguments(p) -> None:
 def main(args) -> int:
     """``python -m rbsm_dyn export`` on a parsed namespace."""
     import sys
-    if not os.path.isfile(args.history):
-        print(f"rbsm_dyn: export: {args.history}: no such file", file=sys.stderr)
+    problem = input_problem(args.history)
+    if problem:
+        print(f"rbsm_dyn: export: {problem}", file=sys.stderr)
         return 2
     if args.every < 1:
         print(f"rbsm_dyn: export: --every must be >= 1 (got {args.every})", file=sys.stderr)

@@ -42,11 +42,15 @@ from pathlib import Path
 import numpy as np
 
 from .export import STRESS_MEASURES, cells_mesh, faces_mesh
-from .history import open_history
+from .history import input_problem, open_history, require_rbsm_history
 
 __all__ = ["render", "plot", "auto_scale", "RendererUnavailable", "check_renderer", "COLORS"]
 
 STATE_COLORS = {1: "orange", 2: "red", 3: "red"}
+
+#: render --size bounds [pixels] (below: nothing to see, VTK divides by 0;
+#: above: the off-screen buffer no longer fits in memory)
+SIZE_MIN, SIZE_MAX = 16, 8192
 
 #: what the cells can be coloured by (--color): the displacement magnitude
 #: or a measure of the cell stress (io/export.py STRESS_MEASURES)
@@ -130,10 +134,14 @@ def render(path, *, frame: int = -1, out=None, scale: float | None = None,
     (color_range: the (min, max) of the colour bar)."""
     if color not in COLORS:
         raise ValueError(f"--color must be one of {', '.join(COLORS)} (got {color!r})")
+    if len(window_size) != 2 or not all(SIZE_MIN <= int(v) <= SIZE_MAX for v in window_size):
+        raise ValueError(f"--size W H must be between {SIZE_MIN} and {SIZE_MAX} pixels each "
+                         f"(got {' '.join(str(v) for v in window_size)})")
     renderer = check_renderer()
     import pyvista as pv
     pv.OFF_SCREEN = True
     path = Path(path)
+    require_rbsm_history(path)
     h = open_history(path, frames=frame)
     if h.position is None:
         raise KeyError(f"{path}: no body positions in the history (output.fields)")
@@ -248,6 +256,7 @@ def plot(path, *, out=None, max_probes: int = 6) -> dict:
     import matplotlib.pyplot as plt
     path = Path(path)
     out = Path(out) if out is not None else path.with_name(f"{path.stem}_plot.png")
+    require_rbsm_history(path)
     h = open_history(path)
     case = h.case()
     mode = case.get("solver", {}).get("mode", "dynamic")
@@ -296,7 +305,8 @@ def add_arguments(p) -> None:
     p.add_argument("--scale", type=float, default=None, metavar="F",
                    help="displacement magnification (default: automatic, printed)")
     p.add_argument("--size", type=int, nargs=2, default=(1600, 800), metavar=("W", "H"),
-                   help="picture size in pixels (default 1600 800)")
+                   help=f"picture size in pixels, {SIZE_MIN} to {SIZE_MAX} each "
+                        "(default 1600 800)")
     p.add_argument("--color", "--colour", choices=COLORS, default="displacement",
                    help="colour the cells by the displacement magnitude (default) or by "
                         "their stress (needs the cell_stress field): a component sxx ... sxz, "
@@ -306,8 +316,14 @@ def add_arguments(p) -> None:
 
 def main(args) -> int:
     """``python -m rbsm_dyn render`` on a parsed namespace."""
-    if not os.path.isfile(args.history):
-        print(f"rbsm_dyn: render: {args.history}: no such file", file=sys.stderr)
+    problem = input_problem(args.history)
+    if problem:
+        print(f"rbsm_dyn: render: {problem}", file=sys.stderr)
+        return 2
+    w, h = args.size
+    if not (SIZE_MIN <= w <= SIZE_MAX and SIZE_MIN <= h <= SIZE_MAX):
+        print(f"rbsm_dyn: render: --size W H must be between {SIZE_MIN} and {SIZE_MAX} "
+              f"pixels each (got {w} {h})", file=sys.stderr)
         return 2
     if args.scale is not None and not (args.scale > 0 and math.isfinite(args.scale)):
         print(f"rbsm_dyn: render: --scale must be a positive number (got {args.scale})",
@@ -338,8 +354,9 @@ def add_plot_arguments(p) -> None:
 
 def main_plot(args) -> int:
     """``python -m rbsm_dyn plot`` on a parsed namespace."""
-    if not os.path.isfile(args.history):
-        print(f"rbsm_dyn: plot: {args.history}: no such file", file=sys.stderr)
+    problem = input_problem(args.history)
+    if problem:
+        print(f"rbsm_dyn: plot: {problem}", file=sys.stderr)
         return 2
     try:
         res = plot(args.history, out=args.out)

@@ -1,0 +1,488 @@
+"""Issue 14: every failure loud, every file safe.  One test (or a few) per
+item of the issue, each reproducing the failure and asserting the fixed
+behaviour: the exit code, the message (naming the option or key and the
+value, or the file), the files left intact, the values finite.
+
+1, 2   a lock (RUN.h5.lock) refuses a second writer and a restart of a live run
+3      divergence is caught whatever absorbs it (energy runaway check)
+4      a run refused at run time leaves an existing history as it was
+5      a model without springs is refused
+6      truncated or damaged histories fail fast, naming the file
+7, 8   options are validated (exit 2, no traceback); Ctrl-C exits 130
+11     directories and files that are not HDF5 are named as such
+"""
+import os
+import re
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+import rbsm_dyn
+from rbsm_dyn.__main__ import main
+from rbsm_dyn.io.lock import HistoryLock, lock_path, writer_pid
+
+ROOT = Path(__file__).resolve().parents[1]
+
+SMALL = textwrap.dedent("""\
+    name: small
+    domain: {box: [[0, 0, 0], [0.4, 0.1, 0.1]]}
+    mesh: {kind: blocks, divisions: [8, 2, 2]}
+    materials:
+      steel: {density: 8000, young: 200.0e9, poisson: 0.0}
+    groups:
+      tip: {box: [[0.35, -1, -1], [1, 1, 1]]}
+    boundary: [{face: xmin, fix: all}]
+    initial: [{group: tip, velocity: [0, 0, -1.0]}]
+    solver: {mode: dynamic, end_time: 1.0e-5}
+    output:
+      probes: {tip_z: {group: tip, quantity: displacement, component: z, reduce: mean}}
+    """)
+
+#: the small case running for minutes, a frame (written at once) every 20 steps
+LONG = SMALL.replace("end_time: 1.0e-5}", "end_time: 10.0}").replace(
+    "output:\n", "output:\n  interval: 6.0e-5\n  flush_interval: 0\n")
+
+
+def _env():
+    return dict(os.environ, NUMBA_NUM_THREADS="1")
+
+
+def _write(tmp_path, text, name="case.yaml"):
+    p = tmp_path / name
+    p.write_text(text, encoding="utf-8")
+    return p
+
+
+def _run(args, capsys):
+    code = main([str(a) for a in args])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def _cli(*args, timeout=120):
+    """python -m rbsm_dyn ... in a subprocess: (exit code, stderr)."""
+    r = subprocess.run([sys.executable, "-m", "rbsm_dyn", *map(str, args)], env=_env(),
+                       capture_output=True, text=True, timeout=timeout)
+    return r.returncode, r.stderr
+
+
+def _one_error_line(err):
+    assert "Traceback" not in err, err
+    lines = [ln for ln in err.strip().splitlines() if not ln.startswith("rbsm_dyn: warning")]
+    assert len(lines) == 1, err
+    return lines[0]
+
+
+@pytest.fixture
+def existing(tmp_path, capsys):
+    """A completed history of SMALL and its bytes."""
+    case = _write(tmp_path, SMALL, "small.yaml")
+    out = tmp_path / "run.h5"
+    assert main([str(case), "--out", str(out), "--quiet"]) == 0
+    capsys.readouterr()
+    return out, out.read_bytes()
+
+
+def _start_long_run(tmp_path, out):
+    """The LONG case writing `out` in a subprocess, once it has 2 frames."""
+    case = _write(tmp_path, LONG, "long.yaml")
+    proc = subprocess.Popen([sys.executable, "-m", "rbsm_dyn", str(case), "--out", str(out),
+                             "--quiet"], env=_env(), stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 300          # a cold Numba cache on a busy machine
+    while True:
+        assert proc.poll() is None, proc.communicate()
+        assert time.monotonic() < deadline, "the run wrote no frames in time"
+        try:
+            if rbsm_dyn.open_history(out).frames >= 2:
+                return case, proc
+        except OSError:
+            pass                                # not renamed to `out` yet (first frame)
+        time.sleep(0.1)
+
+
+# ------------------------------------------------------------------ 1, 2: lock
+
+def test_second_writer_and_restart_of_a_live_run_are_refused(tmp_path, capsys):
+    """Items 1 and 2 against a real live run: a restart of it and a second
+    run with the same --out exit 2 naming the writer's pid; the live run
+    goes on undisturbed: after SIGTERM its frames equal, bit for bit, those
+    of the same case run alone (before the lock, the restart cleared the
+    file's flags under the writer and spoilt its last frame)."""
+    out = tmp_path / "live.h5"
+    case, proc = _start_long_run(tmp_path, out)
+    try:
+        assert writer_pid(out) == proc.pid
+        for args in (["--restart", out], ["--out", out]):
+            code, err = _cli(case, *args, "--quiet")
+            line = _one_error_line(err)
+            assert code == 2, err
+            assert f"process {proc.pid}" in line and str(out) in line, line
+            assert proc.poll() is None               # the live run is still going
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        proc.communicate(timeout=120)
+    assert proc.returncode == 143
+    assert not os.path.exists(lock_path(out))        # released at the end
+    h = rbsm_dyn.open_history(out)
+    assert h.status.startswith("failed: interrupted by SIGTERM")
+    assert np.all(np.isfinite(h.position)) and np.all(np.isfinite(h.orientation))
+    # the same frames, written by an undisturbed run of as many steps
+    ref_out = tmp_path / "ref.h5"
+    assert main([str(case), "--out", str(ref_out), "--quiet",
+                 "--max-steps", str(int(h.step[-1]))]) == 0
+    ref = rbsm_dyn.open_history(ref_out)
+    n = h.frames
+    assert ref.frames >= n and np.array_equal(ref.step[:n], h.step)
+    np.testing.assert_array_equal(h.position, ref.position[:n])
+    np.testing.assert_array_equal(h.orientation, ref.orientation[:n])
+
+
+def test_locked_output_is_refused_and_left_untouched(existing, capsys):
+    """Item 2 in one process: while a lock on RUN.h5 is held (here by the
+    test itself), a run writing RUN.h5 and a restart of it exit 2 naming the
+    holder's pid; the file's bytes do not change."""
+    out, before = existing
+    case = out.with_name("small.yaml")
+    with HistoryLock(out):
+        assert open(lock_path(out)).read().strip() == str(os.getpid())
+        for args in ([case, "--out", out, "--quiet"], [case, "--restart", out, "--quiet"]):
+            code, _, err = _run(args, capsys)
+            line = _one_error_line(err)
+            assert code == 2
+            assert f"process {os.getpid()}" in line and "lock file" in line, line
+    assert out.read_bytes() == before
+    assert not os.path.exists(lock_path(out))
+
+
+def test_stale_lock_of_a_dead_run_is_taken_over(existing, capsys):
+    """A lock file left by a killed run (its pid dead, nothing holds it) is
+    no obstacle: the next run takes it over, completes, and removes it; a
+    temporary history that the dead run left is removed too."""
+    out, _ = existing
+    p = subprocess.Popen([sys.executable, "-c", "pass"])
+    p.wait()                                     # a pid that is surely dead now
+    Path(lock_path(out)).write_text(f"{p.pid}\n")
+    stale_tmp = out.with_name(f".{out.name}.tmp-{p.pid}")
+    stale_tmp.write_bytes(b"half a history")
+    assert writer_pid(out) is None
+    code, _, err = _run([out.with_name("small.yaml"), "--out", out, "--quiet"], capsys)
+    assert code == 0, err
+    assert rbsm_dyn.open_history(out).status == "completed"
+    assert not os.path.exists(lock_path(out)) and not stale_tmp.exists()
+
+
+# ------------------------------------------------------------------ 3: divergence
+
+def test_impulsive_beam_at_dt_safety_1_is_stopped_or_balanced(tmp_path, capsys):
+    """cases/impulsive_beam.yaml at solver.dt_safety 1.0 (allowed) went
+    unstable at ~1.7 ms; plasticity absorbed it (200 J dissipated of 15.7 J
+    supplied, a balance error 11.8× the supplied energy) and the run exited
+    0.  Now it completes with a balance within 1 % or stops with exit 1,
+    step and time."""
+    text = (ROOT / "cases" / "impulsive_beam.yaml").read_text(encoding="utf-8")
+    old = "solver: {mode: dynamic, end_time: 3.0e-3}"
+    assert old in text
+    case = _write(tmp_path, text.replace(old, "solver: {mode: dynamic, end_time: 3.0e-3, "
+                                              "dt_safety: 1.0}"), "beam.yaml")
+    out = tmp_path / "beam.h5"
+    code, _, err = _run([case, "--out", out, "--quiet", "--threads", "1"], capsys)
+    h = rbsm_dyn.open_history(out)
+    eb = h.energy_balance()
+    supplied = float(np.max(np.abs(eb["supplied"])))
+    if code == 0:
+        assert np.max(np.abs(eb["error"])) <= 0.01 * supplied
+        return
+    assert code == 1, err
+    line = _one_error_line(err)
+    assert re.search(r"diverged at step \d+, t = [0-9.e+-]+ s", line), line
+    assert "plastic" in line
+    assert h.status.startswith("failed: diverged")
+    # stopped at the frame where the total passed 1.5 × (E0 + |W|): the frames
+    # before it are sane
+    o = h.observables
+    total = sum(o[k] for k in ("kinetic", "strain", "plastic", "fracture", "damping"))
+    assert total[-1] > 1.5 * eb["supplied"][-1]
+    assert np.all(total[:-1] <= 1.5 * eb["supplied"][:-1] + 1e-9)
+
+
+# ------------------------------------------------------------------ 4: run-time refusals
+
+@pytest.mark.parametrize("what, old, new, key", [
+    ("dt above the stable step", "end_time: 1.0e-5}", "end_time: 1.0e-5, dt: 1.0}", "solver.dt"),
+    ("5000 modes", "solver: {mode: dynamic, end_time: 1.0e-5}", "solver: {mode: modal, modes: 5000}",
+     "solver.modes"),
+], ids=["dt", "modes"])
+def test_case_error_found_at_run_time_leaves_the_history(existing, capsys, what, old, new, key):
+    """A case that `check` used to pass and the run refused only after it
+    had replaced --out with an empty failed file: now check, info and the
+    run all exit 2 naming the key, and the existing history keeps its
+    bytes."""
+    out, before = existing
+    text = SMALL.replace(old, new)
+    if "modal" in new:
+        text = text.replace("initial: [{group: tip, velocity: [0, 0, -1.0]}]\n", "")
+    case = _write(out.parent, text, "late.yaml")
+    for args in (["check", case], ["info", case], [case, "--out", out, "--quiet"]):
+        code, _, err = _run(args, capsys)
+        line = _one_error_line(err)
+        assert code == 2, (args, err)
+        assert key in line and "late.yaml" in line, line
+    assert out.read_bytes() == before
+    assert sorted(p.name for p in out.parent.iterdir()) == ["late.yaml", "run.h5", "small.yaml"]
+
+
+def test_failure_before_the_first_frame_leaves_the_history(existing, capsys):
+    """An error that only the solver finds (16 modes of a free 2-cell model
+    with 12 DOFs, of which 6 rigid: the pre-checks pass, eigsh refuses):
+    the run writes to .run.h5.tmp-<pid> and renames only at its first frame,
+    so the old history survives, and no temporary file is left."""
+    out, before = existing
+    text = textwrap.dedent("""\
+        name: pair
+        domain: {box: [[0, 0, 0], [0.2, 0.1, 0.1]]}
+        mesh: {kind: blocks, divisions: [2, 1, 1]}
+        materials:
+          steel: {density: 8000, young: 200.0e9, poisson: 0.0}
+        solver: {mode: modal, modes: 8}
+        """)
+    case = _write(out.parent, text, "pair.yaml")
+    code, _, err = _run([case, "--out", out, "--quiet"], capsys)
+    line = _one_error_line(err)
+    assert code == 2 and "solver.modes" in line, err
+    assert out.read_bytes() == before
+    assert not any(p.name.startswith(".run.h5.tmp") for p in out.parent.iterdir())
+    assert not os.path.exists(lock_path(out))
+
+
+# ------------------------------------------------------------------ 5: no springs
+
+@pytest.mark.parametrize("mode", ["dynamic", "static"])
+def test_model_without_springs_is_refused(tmp_path, capsys, mode):
+    """One free block has no springs: the stable step was inf, 0 steps ran
+    and the history held time = NaN with exit 0.  Now: exit 2 naming the
+    cause, no history written."""
+    solver = ("solver: {mode: dynamic, end_time: 1.0e-5}" if mode == "dynamic"
+              else "solver: {mode: static}")
+    text = textwrap.dedent(f"""\
+        name: lonely
+        domain: {{box: [[0, 0, 0], [0.1, 0.1, 0.1]]}}
+        mesh: {{kind: blocks, divisions: [1, 1, 1]}}
+        materials:
+          steel: {{density: 8000, young: 200.0e9, poisson: 0.0}}
+        loads: [{{group: all, force: [0, 0, -1.0]}}]
+        {solver}
+        """)
+    case = _write(tmp_path, text)
+    out = tmp_path / "lonely.h5"
+    code, _, err = _run([case, "--out", out, "--quiet"], capsys)
+    line = _one_error_line(err)
+    assert code == 2, err
+    assert "no springs" in line and "1 body" in line, line
+    assert not out.exists()
+
+
+# ------------------------------------------------------------------ 6: damaged files
+
+def _root_header_offset(path):
+    """Address of the root group's object header (superblock v2/3)."""
+    head = Path(path).read_bytes()[:48]
+    assert head[:8] == b"\x89HDF\r\n\x1a\n" and head[8] in (2, 3)
+    return int.from_bytes(head[36:44], "little")
+
+
+def _as_left_by_a_killed_writer(path):
+    """Set the superblock's "open for SWMR write" flags (and its checksum),
+    as a SIGKILLed writer leaves them: the reader must take its SWMR path."""
+    from rbsm_dyn.io.history import _lookup3
+    data = bytearray(Path(path).read_bytes())
+    data[11] = 0x05                     # write access | SWMR write access
+    data[44:48] = _lookup3(bytes(data[:44])).to_bytes(4, "little")
+    Path(path).write_bytes(bytes(data))
+
+
+def _damaged_copies(src, folder):
+    data = src.read_bytes()
+    root = _root_header_offset(src)
+    files = {}
+    files["truncated"] = folder / "truncated.h5"
+    files["truncated"].write_bytes(data[:len(data) // 2])
+    flipped = bytearray(data)
+    flipped[root + 12] ^= 0xFF          # inside the root object header: checksum fails
+    files["flipped"] = folder / "flipped.h5"
+    files["flipped"].write_bytes(bytes(flipped))
+    files["killed_flipped"] = folder / "killed_flipped.h5"
+    files["killed_flipped"].write_bytes(bytes(flipped))
+    _as_left_by_a_killed_writer(files["killed_flipped"])
+    files["killed_truncated"] = folder / "killed_truncated.h5"
+    files["killed_truncated"].write_bytes(data)
+    _as_left_by_a_killed_writer(files["killed_truncated"])
+    with open(files["killed_truncated"], "r+b") as fh:
+        fh.truncate(len(data) // 2)
+    return files
+
+
+def test_damaged_history_fails_fast_naming_the_file(existing, capsys):
+    """A truncated or bit-flipped history made open_history (and export,
+    render, plot, --restart) wait for ever: HDF5's SWMR open retries a bad
+    metadata checksum with growing sleeps.  Now each fails in well under a
+    second with the file's name -- also a killed run's file (SWMR flags
+    set), and a killed run's file that is sound still reads."""
+    out, _ = existing
+    killed_ok = out.with_name("killed_ok.h5")
+    killed_ok.write_bytes(out.read_bytes())
+    _as_left_by_a_killed_writer(killed_ok)
+    with pytest.raises(OSError):
+        h5py.File(killed_ok, "r")              # a plain open refuses it ...
+    h = rbsm_dyn.open_history(killed_ok)       # ... open_history reads it
+    assert h.frames == rbsm_dyn.open_history(out).frames
+    for what, path in _damaged_copies(out, out.parent).items():
+        t0 = time.perf_counter()
+        with pytest.raises(OSError) as exc:
+            rbsm_dyn.open_history(path)
+        took = time.perf_counter() - t0
+        assert took < 1.0, (what, took)        # measured: 1-20 ms
+        assert str(path) in str(exc.value), (what, exc.value)
+        assert "Traceback" not in str(exc.value)
+
+
+@pytest.mark.parametrize("command", ["export", "render", "plot", "restart"])
+def test_commands_on_a_damaged_history_exit_2_naming_it(existing, capsys, command):
+    out, _ = existing
+    case = out.with_name("small.yaml")
+    for what, path in _damaged_copies(out, out.parent).items():
+        args = ([case, "--restart", path, "--quiet"] if command == "restart"
+                else [command, path, "--out", out.parent / f"{command}_out"])
+        t0 = time.perf_counter()
+        code, _, err = _run(args, capsys)
+        took = time.perf_counter() - t0
+        line = _one_error_line(err)
+        assert code == 2, (what, err)
+        assert str(path) in line, line
+        # the restart builds the model first (a few 0.1 s)
+        assert took < 10.0, (what, took)
+
+
+# ------------------------------------------------------------------ 7, 8: options
+
+@pytest.mark.parametrize("args, expect", [
+    (["--threads", "-1"], "--threads must be at least 1 (got -1)"),
+    (["--threads", "0"], "--threads must be at least 1 (got 0)"),
+    (["--max-steps", "-5"], "--max-steps must be 0 or more (got -5)"),
+    (["--out", ""], "--out needs a file name (got '')"),
+], ids=["threads-1", "threads0", "max_steps-5", "out_empty"])
+def test_bad_options_exit_2_naming_option_and_value(tmp_path, capsys, args, expect):
+    case = _write(tmp_path, SMALL)
+    code, _, err = _run([case, *args, "--quiet"], capsys)
+    line = _one_error_line(err)
+    assert code == 2
+    assert expect in line, line
+    assert not (tmp_path / "small.h5").exists()   # (the default output.file)
+
+
+def test_too_many_threads_are_clamped_and_recorded(tmp_path, capsys):
+    """--threads 1000 ran on the machine's threads and recorded 1000; now a
+    warning names the count used, which the history records."""
+    import numba
+    top = numba.config.NUMBA_NUM_THREADS
+    case = _write(tmp_path, SMALL)
+    out = tmp_path / "t.h5"
+    code, _, err = _run([case, "--out", out, "--quiet", "--threads", "1000"], capsys)
+    assert code == 0, err
+    assert f"--threads 1000 is more than the {top} threads available" in err
+    assert f"using {top}" in err and "Traceback" not in err
+    assert rbsm_dyn.open_history(out).parameters["threads"] == str(top)
+
+
+def test_read_only_existing_output_is_refused(existing, capsys):
+    out, before = existing
+    os.chmod(out, 0o444)
+    try:
+        code, _, err = _run([out.with_name("small.yaml"), "--out", out, "--quiet"], capsys)
+    finally:
+        os.chmod(out, 0o644)
+    line = _one_error_line(err)
+    assert code == 2
+    assert f"--out {out}" in line and "read-only" in line, line
+    assert out.read_bytes() == before
+
+
+@pytest.mark.parametrize("size", [("0", "0"), ("100000", "100000"), ("-5", "600")])
+def test_render_size_out_of_bounds(existing, capsys, size):
+    out, _ = existing
+    code, _, err = _run(["render", out, "--size", *size], capsys)
+    line = _one_error_line(err)
+    assert code == 2
+    assert f"--size W H must be between 16 and 8192 pixels each (got {size[0]} {size[1]})" \
+        in line, line
+
+
+def test_ctrl_c_during_build_exits_130_without_traceback(tmp_path, capsys, monkeypatch):
+    """KeyboardInterrupt in the build (which can take minutes) gave a
+    traceback; now exit 130 and one line."""
+    import rbsm_dyn.model
+
+    def interrupted(case):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(rbsm_dyn.model, "build_model", interrupted)
+    case = _write(tmp_path, SMALL)
+    code, _, err = _run([case, "--out", tmp_path / "x.h5", "--quiet"], capsys)
+    assert code == 130
+    assert _one_error_line(err) == "rbsm_dyn: interrupted"
+    assert not (tmp_path / "x.h5").exists()
+
+
+@pytest.mark.parametrize("delay", [0.3, 1.2])
+def test_sigint_at_start_up_exits_130_without_traceback(tmp_path, delay):
+    """SIGINT a fraction of a second into `python -m rbsm_dyn` (imports of
+    NumPy/Numba take ~0.7 s, then the build of 4000 Voronoi cells a few s):
+    exit 130, no traceback, no history."""
+    text = SMALL.replace("kind: blocks, divisions: [8, 2, 2]", "kind: voronoi, size: 0.01")
+    case = _write(tmp_path, text)
+    out = tmp_path / "x.h5"
+    proc = subprocess.Popen([sys.executable, "-m", "rbsm_dyn", str(case), "--out", str(out),
+                             "--quiet"], env=_env(), stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    time.sleep(delay)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err
+    assert "Traceback" not in err and "KeyboardInterrupt" not in err, err
+    assert not out.exists()
+
+
+def test_plot_on_an_hdf5_file_of_another_program(tmp_path, capsys):
+    """plot drew an empty picture and exited 0; now exit 2 naming the file
+    (export and render too)."""
+    other = tmp_path / "other.h5"
+    with h5py.File(other, "w") as f:
+        f["data"] = np.arange(10.0)
+    for command in ("plot", "export", "render"):
+        code, _, err = _run([command, other, "--out", tmp_path / "o"], capsys)
+        line = _one_error_line(err)
+        assert code == 2, err
+        assert f"{other}: not an rbsm_dyn history" in line, line
+
+
+# ------------------------------------------------------------------ 11: messages
+
+@pytest.mark.parametrize("command", ["export", "render", "plot"])
+def test_directory_and_non_hdf5_inputs_are_named(tmp_path, capsys, command):
+    """A directory was "no such file"; a text file gave h5py's "file
+    signature not found" without its name."""
+    code, _, err = _run([command, tmp_path], capsys)
+    assert code == 2
+    assert f"{tmp_path}: is a directory" in _one_error_line(err)
+    text = tmp_path / "x.txt"
+    text.write_text("not a history\n")
+    code, _, err = _run([command, text], capsys)
+    assert code == 2
+    assert f"not an HDF5 file: {text}" in _one_error_line(err)
