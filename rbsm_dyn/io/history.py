@@ -963,8 +963,10 @@ def require_rbsm_history(path) -> None:
     f = _open_h5(os.fspath(path))
     try:
         with f:
-            g = f.get("h5md/creator")
-            creator = _attr_str(g, "name") if isinstance(g, h5py.Group) else None
+            creator = None
+            # (not f.get or `in`: they take a damaged object for a missing one)
+            if "h5md" in list(f) and "creator" in list(f["h5md"]):
+                creator = _attr_str(f["h5md/creator"], "name")
     except (OSError, RuntimeError, KeyError) as exc:
         raise HistoryFileError(errno.EIO, f"{path}: cannot read the history file, it is "
                                           f"damaged ({_h5_message(exc)})") from None

@@ -33,6 +33,9 @@ except ImportError:             # not POSIX: no locking (nothing else depends on
 __all__ = ["HistoryLock", "HistoryLocked", "lock_path", "writer_alive", "writer_pid",
            "temporary_path"]
 
+#: flock errors of file systems that do not support it (then the pid decides)
+_NO_FLOCK = {errno.ENOLCK, errno.EOPNOTSUPP, errno.ENOSYS, errno.EINVAL}
+
 #: a writer that finds the lock held tries again this long before it gives up
 #: (a reader's probe holds a shared lock for microseconds)
 _RETRY_SECONDS = 0.25
@@ -111,6 +114,9 @@ def writer_pid(path):
         except OSError as exc:
             if exc.errno in (errno.EAGAIN, errno.EWOULDBLOCK, errno.EACCES):
                 return _read_pid(fd) or -1          # held: by a live process
+            if exc.errno in _NO_FLOCK:
+                pid = _read_pid(fd)
+                return pid if _pid_alive(pid) else None
             return None
         fcntl.flock(fd, fcntl.LOCK_UN)
         return None
@@ -148,12 +154,17 @@ class HistoryLock:
         while True:
             fd = os.open(self.lockfile, os.O_RDWR | os.O_CREAT, 0o644)
             try:
-                if fcntl is not None:
+                try:
+                    if fcntl is None:
+                        raise OSError(errno.ENOSYS, "no fcntl")
                     fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-                else:                                   # pragma: no cover
+                except OSError as exc:
+                    if exc.errno not in _NO_FLOCK:
+                        raise
+                    # a file system without flock: the pid in the file decides
                     pid = _read_pid(fd)
                     if _pid_alive(pid) and pid != os.getpid():
-                        raise BlockingIOError(errno.EAGAIN, "held")
+                        raise BlockingIOError(errno.EAGAIN, "held") from None
             except OSError as exc:
                 if exc.errno not in (errno.EAGAIN, errno.EWOULDBLOCK, errno.EACCES):
                     os.close(fd)
