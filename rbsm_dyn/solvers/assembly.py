@@ -6,7 +6,8 @@ configuration for the Newton iterations of solvers/newton.py: the 6 × 6
 block pattern of the body pairs that share a spring is found once
 (BlockPattern), and each assembly is one compiled pass over the springs
 writing into the blocks of a BSR matrix (no COO sort, no Python loop):
-per spring, C = F diag(k) Fᵀ in the world frame and the blocks
+per spring, C = F T Fᵀ in the world frame (T = diag(k), or a damaging
+spring's local tangent) and the blocks
 G_aᵀ C G_a, G_aᵀ C G_b, G_bᵀ C G_a, G_bᵀ C G_b with G_a = [−I, [r_a]×],
 G_b = [I, −[r_b]×] (r the world arms).  Serial: a spring's four blocks are
 summed in spring order, the same result for any thread count.
@@ -50,13 +51,18 @@ class BlockPattern:
 
     def matrix(self, model, body_quat, spring_frames, spring_k, force=None, gap=None):
         """K (6N × 6N, CSR) with the bodies at body_quat (N+1, 4), spring
-        frames (S, 4) and stiffnesses (S, 3) [N/m]; with the spring forces
+        frames (S, 4) and stiffnesses (S, 3) [N/m] or local stiffness
+        matrices (S, 3, 3) (a damaging spring's tangent: not symmetric); with the spring forces
         on body a and the world gaps (S, 3), plus the geometric stiffness
         (_geometric; K is then not symmetric)."""
         rot = quat_matrix_np(body_quat)
         F = quat_matrix_np(spring_frames)
         data = np.zeros((self.nblocks, 6, 6))
         k = np.ascontiguousarray(spring_k)
+        if k.ndim == 2:              # (S, 3): the diagonal of each local matrix
+            T = np.zeros((len(k), 3, 3))
+            T[:, [0, 1, 2], [0, 1, 2]] = k
+            k = T
         _assemble(model.spring_bodies, model.spring_arm_a, model.spring_arm_b, rot, F, k,
                   self.slots, data)
         if force is not None:
@@ -79,10 +85,14 @@ def _assemble(spring_bodies, arm_a, arm_b, rot, frames, k, slots, data):
         a = spring_bodies[s, 0]
         b = spring_bodies[s, 1]
         Fm = frames[s]
+        T = k[s]
         for i in range(3):
             for j in range(3):
-                C[i, j] = (Fm[i, 0] * k[s, 0] * Fm[j, 0] + Fm[i, 1] * k[s, 1] * Fm[j, 1]
-                           + Fm[i, 2] * k[s, 2] * Fm[j, 2])
+                acc = 0.0
+                for p in range(3):
+                    for q in range(3):
+                        acc += Fm[i, p] * T[p, q] * Fm[j, q]
+                C[i, j] = acc
         for e in range(2):
             body = a if e == 0 else b
             arm = arm_a[s] if e == 0 else arm_b[s]
@@ -137,10 +147,14 @@ def _geometric(spring_bodies, r_a, r_b, frames, k, f, d, slots, data):
         b = spring_bodies[s, 1]
         ground = slots[s, 1] < 0
         Fm = frames[s]
+        T = k[s]
         for i in range(3):
             for j in range(3):
-                C[i, j] = (Fm[i, 0] * k[s, 0] * Fm[j, 0] + Fm[i, 1] * k[s, 1] * Fm[j, 1]
-                           + Fm[i, 2] * k[s, 2] * Fm[j, 2])
+                acc = 0.0
+                for p in range(3):
+                    for q in range(3):
+                        acc += Fm[i, p] * T[p, q] * Fm[j, q]
+                C[i, j] = acc
         f0, f1, f2 = f[s, 0], f[s, 1], f[s, 2]
         d0, d1, d2 = d[s, 0], d[s, 1], d[s, 2]
         # D = −[f]× + C [d]×

@@ -39,6 +39,9 @@ the given increment at most).  Every converged increment is a frame
 """
 import time as _time
 
+import math
+
+import numba as nb
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
@@ -46,7 +49,8 @@ import scipy.sparse.linalg as spla
 from ..model import new_state
 from ..physics.inelastic import inelastic_spring_pass
 from ..physics.integrate import DISPLACEMENT, FREE, VELOCITY
-from ..physics.laws import BROKEN, P_MU
+from ..physics.laws import (BROKEN, P_CRIT, P_FT, P_GF, P_GS, P_MU, P_RS, P_RUPT)
+from ..physics.laws.rupture import MIXED, SOFTENING, mixed_mode_damage, softening_damage
 from ..physics.poisson import poisson_args, poisson_pass
 from ..physics.rotation import quat_mul_np
 from ..physics.springs import elastic_spring_pass, spring_local_gap
@@ -150,6 +154,7 @@ class Newton:
 
     # -- linear solves -----------------------------------------------------
     lu = None
+    use_tangent = True
     lu_symmetric = True
     symmetric = True
     cg_iterations = 0
@@ -193,24 +198,22 @@ class Newton:
 
     # -- stiffness ---------------------------------------------------------
     def stiffness(self, state, tri):
-        """Secant stiffness (6N × 6N) in the present configuration."""
+        """Iteration matrix (6N × 6N) in the present configuration: the
+        springs' local stiffnesses (_local_tangents), their geometric
+        stiffness once rotations are finite."""
         m = self.m
         k = m.spring_k
         sstate, dmg = tri
+        self.tangent = False
         if sstate is not None:
-            f = np.where(sstate >= BROKEN, OPEN_FRACTION, 1.0 - dmg)
-            # a broken face in contact, or just touching (δn ≤ 0: an
-            # interface or a cut at the start), at full stiffness; its
-            # tangential springs too when it has friction
             gap = np.empty((m.n_springs, 3))
             spring_local_gap(m.spring_bodies, m.spring_arm_a, m.spring_arm_b, m.spring_frame0,
                              state.body_pos, state.body_rot, state.body_dq, gap)
-            touch = (sstate >= BROKEN) & (gap[:, 0] <= 1e-9 * m.spring_h)
-            fric = m.law_params[m.spring_law, P_MU] > 0
-            f3 = np.repeat(f[:, None], 3, axis=1)
-            f3[touch, 0] = 1.0
-            f3[touch & fric, 1:] = 1.0
-            k = k * f3
+            k = np.zeros((m.n_springs, 3, 3))
+            self.tangent = bool(_local_tangents(
+                m.spring_k, m.spring_area, m.spring_h, m.spring_law, m.law_params, sstate, dmg,
+                state.spring_dmg, state.spring_kappa, state.spring_dp, gap, OPEN_FRACTION,
+                self.use_tangent, k))
         # frames and arms turned with their bodies (body a's rotation for the
         # frame: the mid frame to first order)
         n = self.n
@@ -222,8 +225,9 @@ class Newton:
         # the exact Jacobian of an elastic residual (checked against finite
         # differences, tests/test_newton.py), not symmetric
         angle = 2.0 * np.arccos(np.clip(np.abs(dq[:n, 0]), 0.0, 1.0))
-        self.symmetric = not (angle.size and angle.max() > GEOMETRIC_ANGLE)
-        if self.symmetric:
+        self.symmetric = not (angle.size and angle.max() > GEOMETRIC_ANGLE) \
+            and not self.tangent
+        if not (angle.size and angle.max() > GEOMETRIC_ANGLE):
             K = self.pattern.matrix(m, state.body_quat, frames, k)
         else:
             sb = m.spring_bodies
@@ -233,6 +237,75 @@ class Newton:
             K = self.pattern.matrix(m, state.body_quat, frames, k, force=state.spring_force,
                                     gap=pb - pa)
         return K if self.K_aux is None else (K + self.K_aux).tocsr()
+
+
+@nb.njit(cache=True)
+def _local_tangents(spring_k, spring_area, spring_h, spring_law, law_params, state, dmg,
+                    dmg0, kappa0, dp, gap, open_fraction, tangent, out):
+    """Local stiffness (3 × 3, [N/m]) of every spring at its trial state
+    (rupture.py's laws): intact: diag(kn, ks, kt) times (1 − D) (a closed
+    face's normal spring whole); a spring whose damage grows in this
+    increment (D > the committed D0) gets the consistent tangent
+    ∂f/∂e = (1 − D) K − K e ⊗ ∂D/∂e (∂D/∂e by central differences of the
+    damage function; not symmetric); broken: contact at full stiffness when
+    the face touches (δn ≤ 0; tangential too with friction), else
+    `open_fraction` of it.  `tangent` False: the secant (1 − D) K for all.
+    Returns True when some spring got a tangent."""
+    any_soft = False
+    g = np.zeros(3)
+    for s in range(spring_k.shape[0]):
+        kn, ks, kt = spring_k[s, 0], spring_k[s, 1], spring_k[s, 2]
+        P = law_params[spring_law[s]]
+        if state[s] >= BROKEN:
+            f = open_fraction
+            if gap[s, 0] <= 1e-9 * spring_h[s]:
+                out[s, 0, 0] = kn
+                out[s, 1, 1] = ks if P[P_MU] > 0.0 else f * ks
+                out[s, 2, 2] = kt if P[P_MU] > 0.0 else f * kt
+            else:
+                out[s, 0, 0] = f * kn
+                out[s, 1, 1] = f * ks
+                out[s, 2, 2] = f * kt
+            continue
+        D = dmg[s]
+        en = gap[s, 0] - dp[s, 0]
+        es = gap[s, 1] - dp[s, 1]
+        et = gap[s, 2] - dp[s, 2]
+        out[s, 0, 0] = kn * (1.0 - D) if en > 0.0 else kn
+        out[s, 1, 1] = ks * (1.0 - D)
+        out[s, 2, 2] = kt * (1.0 - D)
+        if not tangent or D <= dmg0[s] or D >= 1.0 or P[P_CRIT] > 0:
+            continue
+        area = spring_area[s]
+        rupt = P[P_RUPT]
+        g[:] = 0.0
+        if rupt == SOFTENING:
+            if en <= kappa0[s]:
+                continue
+            h = 1e-6 * abs(en) + 1e-300
+            g[0] = (softening_damage(en + h, kn / area, P[P_FT], P[P_GF])
+                    - softening_damage(en - h, kn / area, P[P_FT], P[P_GF])) / (2.0 * h)
+        elif rupt == MIXED:
+            e = np.array([en, es, et])
+            scale = 1e-6 * math.sqrt(en * en + es * es + et * et) + 1e-300
+            for c in range(3):
+                ep = e.copy()
+                em = e.copy()
+                ep[c] += scale
+                em[c] -= scale
+                dp_, _ = mixed_mode_damage(ep[0], ep[1], ep[2], kn / area, ks / area,
+                                           kt / area, P[P_FT], P[P_GF], P[P_RS], P[P_GS])
+                dm_, _ = mixed_mode_damage(em[0], em[1], em[2], kn / area, ks / area,
+                                           kt / area, P[P_FT], P[P_GF], P[P_RS], P[P_GS])
+                g[c] = (dp_ - dm_) / (2.0 * scale)
+        else:
+            continue
+        fvec = (kn * en if en > 0.0 else 0.0, ks * es, kt * et)
+        for i in range(3):
+            for j in range(3):
+                out[s, i, j] -= fvec[i] * g[j]
+        any_soft = True
+    return any_soft
 
 
 def _conj(q):
@@ -357,11 +430,19 @@ def _increment(nt, state, lam, goal, plan, tol, controlled):
     if not controlled:
         lam = goal
     ratio = np.inf
+    # the consistent tangent of damaging springs first (quadratic where it
+    # works); the secant, always positive, for the rest of the increment
+    # once the residual grows (a softening lattice can send the tangent
+    # iteration astray: Rots & Invernizzi 2004)
+    nt.use_tangent = True
     for k in range(1, NEWTON_MAX_IT + 1):
         nt.set_prescribed(state, lam)
         r, tri = nt.residual(state, lam)
         nt._support = state.body_support[:nt.n].reshape(-1)
+        prev = ratio
         ratio = nt.norm(r) / max(nt.reference(r, lam), 1e-300)
+        if k > 2 and not ratio < prev:
+            nt.use_tangent = False
         if controlled:
             tau, c = probe_functional(m, state, plan)
             gap = goal - tau
