@@ -64,6 +64,7 @@ EASY_IT = 5             # an increment converged in this many lets the next grow
 OPEN_FRACTION = 1e-6    # secant stiffness of an open crack / the intact spring's
 LINE_SEARCH = (0.5, 4.0)   # bounds of the line-search step
 GEOMETRIC_ANGLE = 1e-3    # rotation [rad] beyond which the geometric stiffness is added
+GMRES_MAX = 60          # GMRES iterations (no restart) before refactorising
 CG_MAX = 30             # CG iterations before the preconditioner is refactorised
 CG_RTOL = 1e-10         # relative residual of each linear solve
 
@@ -165,12 +166,14 @@ class Newton:
         conjugate gradients preconditioned by the SuperLU factors of an
         earlier A (the secant stiffness changes a little from one
         iteration to the next, so a stale factorisation is a very good
-        preconditioner), refactorised when CG needs more than CG_MAX
-        iterations; None if A is singular."""
+        preconditioner; GMRES when A is not symmetric: a damaging spring's
+        tangent, the geometric stiffness), refactorised when CG_MAX (CG) or
+        GMRES_MAX (GMRES) iterations are not enough; None if A is
+        singular."""
         bn = np.linalg.norm(b)
         if bn == 0.0:
             return np.zeros_like(b)
-        if self.lu is not None and self.lu_symmetric == self.symmetric:
+        if self.lu is not None:
             count = [0]
 
             def cb(_):
@@ -180,7 +183,7 @@ class Newton:
                 x, info = spla.cg(A, b, x0=self.lu.solve(b), rtol=CG_RTOL, maxiter=CG_MAX,
                                   M=M, callback=cb)
             else:
-                x, info = spla.gmres(A, b, x0=self.lu.solve(b), rtol=CG_RTOL, restart=CG_MAX,
+                x, info = spla.gmres(A, b, x0=self.lu.solve(b), rtol=CG_RTOL, restart=GMRES_MAX,
                                      maxiter=1, M=M, callback=cb, callback_type="pr_norm")
             self.cg_iterations += count[0]
             if info == 0 and np.all(np.isfinite(x)):
