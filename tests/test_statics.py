@@ -157,3 +157,23 @@ def test_A4_end_moment_rolls_beam_into_circle(run_case, fraction):
     err = np.hypot(h.observables["tip_x"][-1] - ux, h.observables["tip_z"][-1] - uz)
     assert err < 1e-2 * L
     assert abs(h.observables["tip_ry"][-1]) == pytest.approx(k * x, rel=1e-2)
+
+
+def test_max_iterations_is_honoured(tmp_path):
+    """`solver.max_iterations: 3` stops a load step after 3 iterations (it
+    ran 200, the check interval, before): the run fails with exit 1 and a
+    message naming the load step, the 3 iterations and the residual ratio
+    against the tolerance, with the failed frame's step 3 in the history."""
+    import textwrap
+    import rbsm_dyn
+    from rbsm_dyn.__main__ import main
+    text = beam_case(10, 2, force="[0, 0, -1000.0]").replace(
+        "tolerance: 1e-06}", "tolerance: 1e-06, max_iterations: 3, predictor: false}")
+    path = tmp_path / "c.yaml"
+    path.write_text(textwrap.dedent(text), encoding="utf-8")
+    out = tmp_path / "r.h5"
+    assert main([str(path), "--out", str(out), "--quiet"]) == 1
+    h = rbsm_dyn.open_history(out)
+    assert "did not converge in 3 iterations" in h.status
+    assert "residual ratio" in h.status and "tolerance 1e-06" in h.status
+    assert int(h.step[-1]) == 3

@@ -72,7 +72,7 @@ def run(case, model, recorder, *, max_steps=None, progress=None, check_every=200
         state.body_pos[:-1][disp] = m.body_pos0[:-1][disp] + lam * m.dof_value[:, :3][disp]
         it = 0
         while True:
-            k = check_every
+            k = min(check_every, sol.max_iterations - it)
             if max_steps is not None:
                 k = min(k, max(0, int(max_steps) - total))
             ek, c = run_relax(
