@@ -33,9 +33,10 @@ rotation by the rotation vector θ of the solution (so the `rotation`
 probe reads θ back).  Probes and reactions as in a static run:
 `reaction` = support-spring forces on the body (linear, C_s B_s U) plus the
 constraint force K U − F on its constrained components.  Observables:
-strain = ½ UᵀKU, external_work = (F + R)ᵀU (loads and the work of the
-constraint forces on prescribed displacements; = 2 × strain in a linear
-solution), residual = ‖K_ff U_f − b‖/‖b‖, kinetic = damping = 0.
+strain = ½ UᵀKU, external_work = ½ (F + R)ᵀU (the work of the loads and
+of the constraint forces on prescribed displacements along the
+proportional path from the unloaded state: = strain in a linear
+solution, so the energy balance closes), residual = ‖K_ff U_f − b‖/‖b‖, kinetic = damping = 0.
 """
 import time as _time
 
@@ -230,7 +231,7 @@ def run(case, model, recorder, *, max_steps=None, progress=None):
     state.body_reaction[:] = sol.body_reaction
     Uf = sol.U.reshape(-1)
     strain = 0.5 * float(Uf @ (sol.K @ Uf))                   # ½ UᵀKU
-    work = float((sol.load.reshape(-1) + sol.reaction.reshape(-1)) @ Uf)  # (F + R)ᵀU
+    work = 0.5 * float((sol.load.reshape(-1) + sol.reaction.reshape(-1)) @ Uf)  # ½ (F + R)ᵀU
     obs = {"kinetic": 0.0, "strain": strain, "external_work": work, "damping": 0.0,
            "n_broken": 0.0, "residual": sol.residual}
     recorder.append(state, 1, 1.0, zero, zero, obs, np.ones(n))

@@ -529,9 +529,9 @@ def record_frame_keep(recorder, model, state, step, lam, ratio):
     state.body_reaction[:] = keep
     n = model.n_bodies
     zero = np.zeros((n, 3))
-    from .relax import load_work
+    from .relax import path_work
     obs = {"kinetic": 0.0, "strain": recorder.strain_energy(state),
-           "external_work": load_work(model, state, lam), "damping": 0.0,
+           "external_work": path_work(recorder, model, state, lam), "damping": 0.0,
            "residual": float(ratio)}
     recorder.append(state, step, lam, zero, zero, obs, np.full(n, lam))
 

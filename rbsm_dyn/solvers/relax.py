@@ -179,13 +179,42 @@ def load_work(model, state, lam):
     return work
 
 
+def path_work(recorder, model, state, lam):
+    """External work along the load path [J]: the trapezoidal sum over the
+    recorded equilibrium states of ½ (f_k−1 + f_k)·(u_k − u_k−1), f the
+    loads at factor λ and the constraint forces on prescribed
+    displacements, u the displacements and rotation vectors.  At
+    equilibrium it equals strain + plastic + fracture energy (exactly for a
+    linear response, to O(Δλ²) otherwise), so a static run's energy
+    balance means what a dynamic run's does (issue 13)."""
+    from .output import rotation_vectors
+    n = model.n_bodies
+    f = np.zeros((n, 6))
+    f[:, :3] = lam * (model.body_fext + model.body_mass[:, None] * model.gravity)
+    f[:, 3:] = lam * model.body_mext
+    disp = model.dof_kind[:, :3] == 3
+    cons = state.body_reaction - state.body_support[:n]
+    f[:, :3][disp] += cons[disp]
+    u = np.zeros((n, 6))
+    u[:, :3] = state.body_pos[:n] - model.body_pos0[:n]
+    u[:, 3:] = rotation_vectors(model, state.body_quat)[:n]
+    prev = getattr(recorder, "_path_work", None)
+    if prev is None:
+        work = 0.5 * float(np.sum(f * u))        # from the unloaded start
+    else:
+        f0, u0, w0 = prev
+        work = w0 + 0.5 * float(np.sum((f0 + f) * (u - u0)))
+    recorder._path_work = (f, u, work)
+    return work
+
+
 def record_frame(recorder, model, state, step, lam, ratio):
     """One frame of a static solution at load factor lam (velocities zero)."""
     from .explicit import spring_pass
     spring_pass(model, state)
     n = model.n_bodies
     zero = np.zeros((n, 3))
-    work = load_work(model, state, lam)
+    work = path_work(recorder, model, state, lam)
     obs = {"kinetic": 0.0, "strain": recorder.strain_energy(state), "external_work": work,
            "damping": 0.0, "residual": float(ratio)}
     recorder.append(state, step, lam, zero, zero, obs, np.full(n, lam))
