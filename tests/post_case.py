@@ -7,6 +7,22 @@ import textwrap
 
 from rbsm_dyn.__main__ import main
 
+#: a tiny dynamic cantilever (32 blocks, 10 µs) for command-line tests
+TINY = textwrap.dedent("""\
+    name: good
+    domain: {box: [[0, 0, 0], [0.4, 0.1, 0.1]]}
+    mesh: {kind: blocks, divisions: [8, 2, 2]}
+    materials:
+      steel: {density: 8000, young: 200.0e9, poisson: 0.0}
+    groups:
+      tip: {box: [[0.35, -1, -1], [1, 1, 1]]}
+    boundary: [{face: xmin, fix: all}]
+    initial: [{group: tip, velocity: [0, 0, -1.0]}]
+    solver: {mode: dynamic, end_time: 1.0e-5}
+    output:
+      probes: {tip_z: {group: tip, quantity: displacement, component: z, reduce: mean}}
+    """)
+
 BEAM = textwrap.dedent("""\
     name: post-beam
     description: small clamped beam hit downward, with a pre-cut face

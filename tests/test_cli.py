@@ -3,7 +3,6 @@ naming file, line and key for a bad case (never a traceback), exit 1 with
 step and time for a failed run (the history stays readable), exit 0 and a
 history otherwise."""
 import re
-import textwrap
 
 import numpy as np
 import pytest
@@ -11,20 +10,9 @@ import pytest
 import rbsm_dyn
 from rbsm_dyn.__main__ import main
 
-GOOD = textwrap.dedent("""\
-    name: good
-    domain: {box: [[0, 0, 0], [0.4, 0.1, 0.1]]}
-    mesh: {kind: blocks, divisions: [8, 2, 2]}
-    materials:
-      steel: {density: 8000, young: 200.0e9, poisson: 0.0}
-    groups:
-      tip: {box: [[0.35, -1, -1], [1, 1, 1]]}
-    boundary: [{face: xmin, fix: all}]
-    initial: [{group: tip, velocity: [0, 0, -1.0]}]
-    solver: {mode: dynamic, end_time: 1.0e-5}
-    output:
-      probes: {tip_z: {group: tip, quantity: displacement, component: z, reduce: mean}}
-    """)
+from post_case import TINY
+
+GOOD = TINY
 
 # (what is wrong, text replaced, replacement, key path the message must name)
 BAD = [

@@ -26,24 +26,13 @@ import pytest
 
 import rbsm_dyn
 from rbsm_dyn.__main__ import main
+
+from post_case import TINY
 from rbsm_dyn.io.lock import HistoryLock, lock_path, writer_pid
 
 ROOT = Path(__file__).resolve().parents[1]
 
-SMALL = textwrap.dedent("""\
-    name: small
-    domain: {box: [[0, 0, 0], [0.4, 0.1, 0.1]]}
-    mesh: {kind: blocks, divisions: [8, 2, 2]}
-    materials:
-      steel: {density: 8000, young: 200.0e9, poisson: 0.0}
-    groups:
-      tip: {box: [[0.35, -1, -1], [1, 1, 1]]}
-    boundary: [{face: xmin, fix: all}]
-    initial: [{group: tip, velocity: [0, 0, -1.0]}]
-    solver: {mode: dynamic, end_time: 1.0e-5}
-    output:
-      probes: {tip_z: {group: tip, quantity: displacement, component: z, reduce: mean}}
-    """)
+SMALL = TINY.replace("name: good", "name: small")
 
 #: the small case running for minutes, a frame (written at once) every 20 steps
 LONG = SMALL.replace("end_time: 1.0e-5}", "end_time: 10.0}").replace(

@@ -75,6 +75,18 @@ class BlockPattern:
         return K.tocsr()
 
 
+@nb.njit(cache=True, inline="always")
+def _world(F, T, C):
+    """C = F T Fᵀ: a spring's local 3 × 3 stiffness in the world frame."""
+    for i in range(3):
+        for j in range(3):
+            acc = 0.0
+            for p in range(3):
+                for q in range(3):
+                    acc += F[i, p] * T[p, q] * F[j, q]
+            C[i, j] = acc
+
+
 @nb.njit(cache=True)
 def _assemble(spring_bodies, arm_a, arm_b, rot, frames, k, slots, data):
     n = rot.shape[0] - 1
@@ -85,14 +97,7 @@ def _assemble(spring_bodies, arm_a, arm_b, rot, frames, k, slots, data):
         a = spring_bodies[s, 0]
         b = spring_bodies[s, 1]
         Fm = frames[s]
-        T = k[s]
-        for i in range(3):
-            for j in range(3):
-                acc = 0.0
-                for p in range(3):
-                    for q in range(3):
-                        acc += Fm[i, p] * T[p, q] * Fm[j, q]
-                C[i, j] = acc
+        _world(Fm, k[s], C)
         for e in range(2):
             body = a if e == 0 else b
             arm = arm_a[s] if e == 0 else arm_b[s]
@@ -147,14 +152,7 @@ def _geometric(spring_bodies, r_a, r_b, frames, k, f, d, slots, data):
         b = spring_bodies[s, 1]
         ground = slots[s, 1] < 0
         Fm = frames[s]
-        T = k[s]
-        for i in range(3):
-            for j in range(3):
-                acc = 0.0
-                for p in range(3):
-                    for q in range(3):
-                        acc += Fm[i, p] * T[p, q] * Fm[j, q]
-                C[i, j] = acc
+        _world(Fm, k[s], C)
         f0, f1, f2 = f[s, 0], f[s, 1], f[s, 2]
         d0, d1, d2 = d[s, 0], d[s, 1], d[s, 2]
         # D = −[f]× + C [d]×

@@ -144,19 +144,17 @@ class Newton:
     def norm(self, r):
         return float(np.linalg.norm((r * self.w)[self.free]))
 
-    def reference(self, r, lam):
+    def reference(self, r, lam, support):
         """Scale of the forces for the convergence ratio: the applied loads
-        and the constraint forces (reactions), plus the support springs'."""
-        m = self.m
+        and the constraint forces (reactions), plus the support springs'
+        (support (N, 3) [N])."""
         applied = np.linalg.norm((lam * self.F * self.w))
         cons = np.linalg.norm((r * self.w)[~self.free])
-        sup = np.linalg.norm(self._support)
-        return applied + cons + sup
+        return applied + cons + np.linalg.norm(support)
 
     # -- linear solves -----------------------------------------------------
     lu = None
     use_tangent = True
-    lu_symmetric = True
     symmetric = True
     cg_iterations = 0
     factorizations = 0
@@ -189,7 +187,6 @@ class Newton:
             if info == 0 and np.all(np.isfinite(x)):
                 return x
         try:
-            self.lu_symmetric = self.symmetric
             self.lu = spla.splu(sp.csc_matrix(A), permc_spec="COLAMD",
                                 options=dict(SymmetricMode=self.symmetric))
         except RuntimeError:
@@ -409,7 +406,7 @@ def run(case, model, recorder, *, max_steps=None, progress=None):
         iterations.append(its)
         d = min(d_max, step * 1.5) if its <= EASY_IT else step
         _set_reactions(it_, state, lam)
-        record_frame_keep(recorder, m, state, total, lam, ratio)
+        record_frame(recorder, m, state, total, lam, ratio)
         peak = max(peak, abs(lam))
         if progress:
             frac = 1.0 - abs(target_end - pos) / max(abs(target_end - (0.0 if control is None
@@ -441,9 +438,8 @@ def _increment(nt, state, lam, goal, plan, tol, controlled):
     for k in range(1, NEWTON_MAX_IT + 1):
         nt.set_prescribed(state, lam)
         r, tri = nt.residual(state, lam)
-        nt._support = state.body_support[:nt.n].reshape(-1)
         prev = ratio
-        ratio = nt.norm(r) / max(nt.reference(r, lam), 1e-300)
+        ratio = nt.norm(r) / max(nt.reference(r, lam, state.body_support[:nt.n]), 1e-300)
         if k > 2 and not ratio < prev:
             nt.use_tangent = False
         if controlled:
@@ -519,21 +515,6 @@ def _set_reactions(nt, state, lam):
     r = state.body_wrench[:n, :3] + lam * nt.F.reshape(n, 6)[:, :3]
     cons = nt.m.dof_kind[:, :3] != FREE
     state.body_reaction[:] = np.where(cons, state.body_support[:n] - r, state.body_support[:n])
-
-
-def record_frame_keep(recorder, model, state, step, lam, ratio):
-    """record_frame without recomputing the reactions."""
-    keep = state.body_reaction.copy()
-    from .explicit import spring_pass
-    spring_pass(model, state)
-    state.body_reaction[:] = keep
-    n = model.n_bodies
-    zero = np.zeros((n, 3))
-    from .relax import path_work
-    obs = {"kinetic": 0.0, "strain": recorder.strain_energy(state),
-           "external_work": path_work(recorder, model, state, lam), "damping": 0.0,
-           "residual": float(ratio)}
-    recorder.append(state, step, lam, zero, zero, obs, np.full(n, lam))
 
 
 _SAVED = ("body_pos", "body_quat", "body_rot", "body_dq", "spring_state", "spring_dp",
