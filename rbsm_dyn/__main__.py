@@ -82,10 +82,33 @@ def _post(command, argv):
     return mod.main(p.parse_args(argv))
 
 
+#: set by the SIGINT handler below: a KeyboardInterrupt raised inside a
+#: library (an import that catches everything, a callback) may be swallowed
+#: there, so the flag is checked again after the imports and the build
+_INTERRUPTED = False
+
+
+def _on_sigint(signum, frame):
+    global _INTERRUPTED
+    _INTERRUPTED = True
+    raise KeyboardInterrupt
+
+
+def _stop_if_interrupted():
+    if _INTERRUPTED:
+        raise KeyboardInterrupt
+
+
 def main(argv=None):
     """The command line; returns the exit status.  Ctrl-C at any moment
     outside a run's checkpointed loop ends it with 130 and one line, no
     traceback."""
+    import signal
+    try:
+        if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+            signal.signal(signal.SIGINT, _on_sigint)   # (an ignored SIGINT stays ignored)
+    except ValueError:                  # not the main thread
+        pass
     try:
         return _main(argv)
     except KeyboardInterrupt:
@@ -154,6 +177,7 @@ def _main(argv=None):
         print(f"rbsm_dyn: {problem}", file=sys.stderr)
         return 2
     from .case import CaseError, load_case
+    _stop_if_interrupted()
     try:
         case = load_case(path)
     except CaseError as exc:
@@ -207,6 +231,7 @@ def _build_and_go(command, path, case, args, lock):
     except CaseError as exc:
         print(f"rbsm_dyn: {exc}", file=sys.stderr)
         return 2
+    _stop_if_interrupted()
     for note in model.warnings:
         print(f"rbsm_dyn: warning: {note}", file=sys.stderr)
     try:
@@ -221,6 +246,7 @@ def _build_and_go(command, path, case, args, lock):
         return 0
     if command == "info":
         return _info(case, model, threads)
+    _stop_if_interrupted()
     return _run(case, model, args, threads, lock)
 
 
