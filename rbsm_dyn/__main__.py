@@ -354,8 +354,7 @@ def _info(case, model, threads):
     """Counts, steps, memory and output size of the case, without running
     (rbsm_dyn/io/estimate.py says how each figure is made)."""
     from .io.estimate import estimate, format_bytes
-    e = estimate(case, model, extra_observables=EXTRA_OBSERVABLES.get(case.solver.mode, {}),
-                 threads=threads)
+    e = estimate(case, model, extra_observables=_extra_observables(case), threads=threads)
     dt = e.dt_estimate
     print(f"case        {case.name} ({case.solver.mode})")
     print(f"bodies      {e.n_bodies}")
@@ -421,13 +420,21 @@ EXTRA_OBSERVABLES = {"static": {"residual": "1"}, "linear": {"residual": "1"},
                      "modal": {"frequency": "Hz"}}
 
 
+def _extra_observables(case):
+    """Observables of the mode beyond the energies and probes (name: unit)."""
+    extra = dict(EXTRA_OBSERVABLES.get(case.solver.mode, {}))
+    if case.solver.mode == "dynamic" and case.solver.damping.local > 0:
+        extra["kinetic_ratio"] = "1"        # a quasi-static explicit run
+    return extra
+
+
 def _run(case, model, args, threads, lock):
     """Run the case; ``lock``: the held io/lock.HistoryLock of the output."""
     from .case import CaseError
     from .solvers import checkpoint, explicit
     from .solvers.output import Recorder
     out = args.out or case.output.file
-    extra = EXTRA_OBSERVABLES.get(case.solver.mode, {})
+    extra = _extra_observables(case)
     restart = None
     if args.restart:
         # continue RUN.h5 from its checkpoint (solvers/checkpoint.py); this
@@ -497,6 +504,8 @@ def _run(case, model, args, threads, lock):
         return 130
     progress.close()
     rec.close()
+    for note in res.get("warnings", ()):
+        print(f"rbsm_dyn: warning: {note}", file=sys.stderr)
     if case.solver.mode == "modal":
         modal.write_modes_group(out, res["result"])
     if not args.quiet:

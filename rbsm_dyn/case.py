@@ -358,8 +358,13 @@ class Cut(_Node):
 
 
 class Damping(_Node):
-    """Mass-proportional damping ``alpha`` [1/s]."""
+    """Mass-proportional damping ``alpha`` [1/s]; Cundall's local
+    non-viscous damping ``local`` = β in [0, 1) (the force against each
+    body's motion, β × the unbalanced force): set, it makes the run a
+    quasi-static explicit one (the kinetic-to-strain energy ratio is
+    recorded and checked; docs/case_file.md, "Quasi-static explicit runs")."""
     alpha: float = Field(default=0.0, ge=0)
+    local: float = Field(default=0.0, ge=0, lt=1)
 
 
 class Control(_Node):
@@ -703,10 +708,12 @@ def _check_nodes(root, paths: dict) -> None:
     ``paths`` gets the key path of every node (id -> path)."""
     size: dict[int, int] = {}
     active: set[int] = set()
+    seen: set[int] = set()            # distinct nodes (values and keys) met so far
     stack = [(root, (), False)]
     while stack:                      # iterative post-order (no recursion limit)
         node, path, done = stack.pop()
         paths.setdefault(id(node), path)
+        seen.add(id(node))
         if not isinstance(node, (MappingNode, SequenceNode)):
             continue
         key = id(node)
@@ -716,8 +723,10 @@ def _check_nodes(root, paths: dict) -> None:
             kids = (node.value if isinstance(node, SequenceNode)
                     else [n for pair in node.value for n in pair])
             size[key] = 1 + sum(size.get(id(k), 1) for k in kids)
-            # the collections completed so far include all of this one's
-            if size[key] - len(size) > MAX_ALIAS_VALUES:
+            # values this collection expands to, less the distinct nodes met
+            # so far (all of its own among them): at most what aliases add,
+            # and exactly that at the root; a long plain list adds nothing
+            if size[key] - len(seen) > MAX_ALIAS_VALUES:
                 raise _NodeProblem(line, path, "aliases (*name) expand to more than "
                                    f"{MAX_ALIAS_VALUES} values (nested aliases: an alias bomb?)")
             continue
@@ -734,6 +743,7 @@ def _check_nodes(root, paths: dict) -> None:
                     what = "a list" if isinstance(k, SequenceNode) else "a mapping"
                     raise _NodeProblem(k.start_mark.line + 1, path,
                                        f"keys must be plain names (got {what} as a key)")
+                seen.add(id(k))
                 kids.append((v, path + (str(k.value),), False))
         else:
             kids = [(v, path + (i,), False) for i, v in enumerate(node.value)]
@@ -1445,8 +1455,25 @@ def _check(case: Case) -> None:
 
 # -------------------------------------------------------------- public API ---
 
+#: Largest case file read [bytes]: a case is a few KB (the shipped ones 1-5 KB);
+#: the YAML parser takes ~25 s and ~300 MB per MiB of short values, so a
+#: larger file is refused by its size before it is parsed (issue 14: a 40 MB
+#: file took 438 s and 9.4 GB before it was refused).
+MAX_CASE_BYTES = 1 << 20
+
+
+def _too_large(file: str, size: int) -> CaseError:
+    return CaseError(file, None, (), f"the file is {size} bytes ({size / 2**20:.1f} MiB), "
+                     f"more than the {MAX_CASE_BYTES} bytes (1 MiB) a case file may have "
+                     "(a case is a few KB: large data belong in files it names, such as a "
+                     "geometry's file:)")
+
+
 def load_case_text(text: str | bytes, filename: str = "<string>") -> Case:
     """Validate the YAML ``text`` of a case; ``filename`` is used in errors."""
+    n = len(text if isinstance(text, bytes) else text.encode("utf-8", "surrogatepass"))
+    if n > MAX_CASE_BYTES:
+        raise _too_large(filename, n)
     if isinstance(text, bytes):
         try:
             text = text.decode("utf-8-sig")
@@ -1486,7 +1513,11 @@ def load_case(path: str | Path) -> Case:
     the user must read): unreadable file, bad YAML, bad schema, bad values."""
     path = Path(path)
     try:
-        raw = path.read_bytes()
+        size = path.stat().st_size
+        if size > MAX_CASE_BYTES:      # by its size, before reading or parsing it
+            raise _too_large(str(path), size)
+        with open(path, "rb") as f:    # (a file that grows meanwhile: read no more)
+            raw = f.read(MAX_CASE_BYTES + 1)
     except OSError as ex:
         raise CaseError(str(path), None, (), f"cannot read the file "
                         f"({ex.strerror or ex})") from None

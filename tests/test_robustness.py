@@ -9,6 +9,7 @@ value, or the file), the files left intact, the values finite.
 5      a model without springs is refused
 6      truncated or damaged histories fail fast, naming the file
 7, 8   options are validated (exit 2, no traceback); Ctrl-C exits 130
+9      an oversized case file is refused by its size; a long list is no alias bomb
 11     directories and files that are not HDF5 are named as such
 """
 import os
@@ -488,6 +489,68 @@ def test_plot_on_an_hdf5_file_of_another_program(tmp_path, capsys):
         line = _one_error_line(err)
         assert code == 2, err
         assert f"{other}: not an rbsm_dyn history" in line, line
+
+
+# ------------------------------------------------------------------ 9: oversized case files
+
+def test_oversized_case_file_is_refused_by_its_size(tmp_path, capsys):
+    """A 40 MB case file (a 10⁷-element list under an unknown key) took
+    438 s and 9.4 GB before it was refused.  Now a file above
+    case.MAX_CASE_BYTES (1 MiB) is refused before it is read or parsed:
+    exit 2 naming the file, its size and the limit, in well under a second
+    (the file here is 8 MiB, sparse: nothing of it is read), by run, check
+    and info; the file is left as it was."""
+    from rbsm_dyn.case import MAX_CASE_BYTES
+    assert MAX_CASE_BYTES == 1 << 20
+    big = tmp_path / "big.yaml"
+    with open(big, "wb") as f:
+        f.write(SMALL.encode() + b"junk: [")
+        f.truncate(8 << 20)                      # 8 MiB: a hole after the text
+    size = big.stat().st_size
+    for args in ([big, "--out", tmp_path / "o.h5"], ["check", big], ["info", big]):
+        t0 = time.perf_counter()
+        code, _, err = _run(args, capsys)
+        wall = time.perf_counter() - t0
+        line = _one_error_line(err)
+        assert code == 2, err
+        assert f"{big}:" in line and f"{size} bytes" in line and "1048576 bytes (1 MiB)" in line, line
+        assert wall < 1.0, wall
+    assert big.stat().st_size == size and not (tmp_path / "o.h5").exists()
+    # just at the limit: read and parsed (a comment pads it), then judged by its content
+    at_limit = tmp_path / "at_limit.yaml"
+    text = SMALL + "#"
+    at_limit.write_bytes((text + "x" * (MAX_CASE_BYTES - len(text.encode()) - 1) + "\n").encode())
+    assert at_limit.stat().st_size == MAX_CASE_BYTES
+    code, _, err = _run(["check", at_limit], capsys)
+    assert code == 0, err
+
+
+def test_long_list_under_an_unknown_key_is_an_unknown_key(tmp_path, capsys, monkeypatch):
+    """A long plain list (no aliases) was blamed on an "alias bomb": the
+    check of what aliases add counted the collections met, not the values,
+    so any list longer than MAX_ALIAS_VALUES tripped it.  With the bound
+    lowered to 1000 (the same check, fast), a 5000-value list under an
+    unknown key is reported as that unknown key, while nested aliases that
+    expand to 10⁴ values are still refused as an alias bomb."""
+    import rbsm_dyn.case as case_module
+    monkeypatch.setattr(case_module, "MAX_ALIAS_VALUES", 1000)
+    listed = _write(tmp_path, SMALL + "junk: [" + ", ".join(["1"] * 5000) + "]\n", "list.yaml")
+    code, _, err = _run(["check", listed], capsys)
+    line = _one_error_line(err)
+    assert code == 2, err
+    assert "junk: unknown key 'junk'" in line and "alias" not in line, line
+    # a long mapping (its keys are nodes too) is no alias bomb either
+    keyed = _write(tmp_path, SMALL + "junk: {" + ", ".join(f"k{i}: 1" for i in range(3000))
+                   + "}\n", "keys.yaml")
+    code, _, err = _run(["check", keyed], capsys)
+    line = _one_error_line(err)
+    assert code == 2 and "unknown key 'junk'" in line, line
+    bomb = ("a0: &a0 [1, 1, 1, 1, 1, 1, 1, 1, 1, 1]\n"
+            + "".join(f"a{i}: &a{i} [{', '.join([f'*a{i - 1}'] * 10)}]\n" for i in range(1, 4)))
+    bombed = _write(tmp_path, SMALL + bomb, "bomb.yaml")
+    code, _, err = _run(["check", bombed], capsys)
+    line = _one_error_line(err)
+    assert code == 2 and "alias bomb" in line, line
 
 
 # ------------------------------------------------------------------ 11: messages

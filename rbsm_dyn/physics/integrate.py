@@ -143,20 +143,26 @@ def dynamic_body_pass(t, dt, body_wrench, body_support,
                       body_mass, body_inertia, body_pos, body_pos0, body_quat, body_quat0,
                       body_vel, body_angmom, body_rot, body_dq,
                       body_fext, body_mext, body_ffol, body_mfol, body_load_hist, gravity,
-                      damping_alpha, dof_kind, dof_value, dof_hist, hist_ptr, hist_t, hist_a,
-                      body_work, body_damp, body_reaction):
+                      damping_alpha, damping_local, dof_kind, dof_value, dof_hist, hist_ptr,
+                      hist_t, hist_a, body_work, body_damp, body_reaction):
     """One leapfrog step of every body, from forces at time t to t + dt.
 
     Accumulates per body the work of external loads and constraints
-    (`body_work` [J]) and the energy dissipated by mass-proportional damping
-    (`body_damp` [J]); `body_reaction` gets the force of supports and
-    constraints on the body at time t [N]."""
+    (`body_work` [J]) and the energy dissipated by damping (`body_damp`
+    [J]): mass-proportional (`damping_alpha` [1/s]) and Cundall's local
+    non-viscous damping (`damping_local` = β: each free force and moment
+    component f gets −β|f| sign(v), v its velocity at t − dt/2; Cundall
+    1987, Itasca PFC "local damping"; it vanishes where the body does not
+    accelerate, so steady loading is not dragged and supports are not
+    loaded); `body_reaction` gets the force of supports and constraints on
+    the body at time t [N]."""
     n = body_mass.shape[0]
     c = 0.5 * damping_alpha * dt
     # (1 − c)/(1 + c) and dt/(1 + c): divisions out of the loop
     keep = (1.0 - c) / (1.0 + c)
     dt_c = dt / (1.0 + c)
     follow = body_ffol.shape[0] > 0
+    local = damping_local > 0.0
     # by the parts of partition.py (bodies i·PARTS // n = p): the same chunks
     # as the spring pass's phase 0, so that a thread can keep its bodies
     for p in nb.prange(PARTS):
@@ -178,10 +184,14 @@ def dynamic_body_pass(t, dt, body_wrench, body_support,
                 f = g[k] + fext + ffol
                 v_old = body_vel[i, k]
                 kind = dof_kind[i, k]
+                fd = 0.0
                 if kind == FREE:
+                    if local:
+                        # local damping: −β|f| sign(v) (v at t − dt/2)
+                        fd = -damping_local * abs(f) * ((v_old > 0.0) - (v_old < 0.0))
                     # mass-proportional damping, central difference (c = α dt / 2):
                     # v' = ((1 − c) v + dt f/m) / (1 + c)
-                    v_new = keep * v_old + dt_cm * f
+                    v_new = keep * v_old + dt_cm * (f + fd)
                     reaction = body_support[i, k]
                 else:
                     if kind == FIXED:
@@ -199,7 +209,7 @@ def dynamic_body_pass(t, dt, body_wrench, body_support,
                     work += r * v_new * dt
                 va = 0.5 * (v_old + v_new)
                 work += fext * v_new * dt + ffol * va * dt
-                damp += damping_alpha * m * va * va * dt
+                damp += damping_alpha * m * va * va * dt - fd * va * dt
                 body_vel[i, k] = v_new
                 body_pos[i, k] += v_new * dt
                 body_reaction[i, k] = reaction
@@ -207,14 +217,49 @@ def dynamic_body_pass(t, dt, body_wrench, body_support,
             L = body_angmom[i]
             inertia = body_inertia[i]
             l0, l1, l2 = L[0], L[1], L[2]          # L at t − dt/2
+            w0 = 0.0
+            w1 = 0.0
+            w2 = 0.0
+            td0 = 0.0
+            td1 = 0.0
+            td2 = 0.0
+            if local:
+                # world ω = R I⁻¹ Rᵀ L at t − dt/2, for the sign of local damping
+                b0 = (R[0, 0] * l0 + R[1, 0] * l1 + R[2, 0] * l2) / inertia[0]
+                b1 = (R[0, 1] * l0 + R[1, 1] * l1 + R[2, 1] * l2) / inertia[1]
+                b2 = (R[0, 2] * l0 + R[1, 2] * l1 + R[2, 2] * l2) / inertia[2]
+                w0 = R[0, 0] * b0 + R[0, 1] * b1 + R[0, 2] * b2
+                w1 = R[1, 0] * b0 + R[1, 1] * b1 + R[1, 2] * b2
+                w2 = R[2, 0] * b0 + R[2, 1] * b1 + R[2, 2] * b2
             for k in range(3):
                 mext = amp * body_mext[i, k]
                 if follow:
                     mext += amp * (R[k, 0] * body_mfol[i, 0] + R[k, 1] * body_mfol[i, 1]
                                    + R[k, 2] * body_mfol[i, 2])
+                torque = g[3 + k] + mext
+                if local:
+                    wk = w0 if k == 0 else (w1 if k == 1 else w2)
+                    td = -damping_local * abs(torque) * ((wk > 0.0) - (wk < 0.0))
+                    torque += td
+                    if k == 0:
+                        td0 = td
+                    elif k == 1:
+                        td1 = td
+                    else:
+                        td2 = td
                 l_old = L[k]
-                L[k] = keep * l_old + dt_c * (g[3 + k] + mext)   # ((1 − c) L + dt T)/(1 + c)
+                L[k] = keep * l_old + dt_c * torque       # ((1 − c) L + dt T)/(1 + c)
             constrain_rotation(i, dof_kind, R, inertia, L)
+            if local:
+                # dissipated: −T_d·ω over the kick, ω averaged over it (exact for
+                # the kinetic energy ½ Lᵀ R I⁻¹ Rᵀ L at fixed R)
+                b0 = (R[0, 0] * L[0] + R[1, 0] * L[1] + R[2, 0] * L[2]) / inertia[0]
+                b1 = (R[0, 1] * L[0] + R[1, 1] * L[1] + R[2, 1] * L[2]) / inertia[1]
+                b2 = (R[0, 2] * L[0] + R[1, 2] * L[1] + R[2, 2] * L[2]) / inertia[2]
+                v0 = R[0, 0] * b0 + R[0, 1] * b1 + R[0, 2] * b2
+                v1 = R[1, 0] * b0 + R[1, 1] * b1 + R[1, 2] * b2
+                v2 = R[2, 0] * b0 + R[2, 1] * b1 + R[2, 2] * b2
+                damp -= 0.5 * dt * (td0 * (w0 + v0) + td1 * (w1 + v1) + td2 * (w2 + v2))
             if damping_alpha > 0.0 or amp != 0.0:
                 # ω at the half step, for damping dissipation and moment work
                 # (world M·ω = M·R ω_b; a follower moment: m_b·ω_b)
@@ -242,8 +287,8 @@ def run_dynamic(n_steps, step0, dt, inelastic,
                 body_mass, body_inertia, body_pos, body_pos0, body_quat, body_quat0,
                 body_vel, body_angmom, body_rot, body_dq,
                 body_fext, body_mext, body_ffol, body_mfol, body_load_hist, gravity,
-                damping_alpha, dof_kind, dof_value, dof_hist, hist_ptr, hist_t, hist_a,
-                body_work, body_damp, body_reaction, poisson_on,
+                damping_alpha, damping_local, dof_kind, dof_value, dof_hist, hist_ptr, hist_t,
+                hist_a, body_work, body_damp, body_reaction, poisson_on,
                 cell_slot_ptr, slot_cell, slot_rev, slot_g, cell_c0, slot_s0, slot_s1,
                 cell_lv, aux_g, aux_p):
     """Advance n_steps explicit steps inside compiled code.  Step order:
@@ -261,7 +306,7 @@ def run_dynamic(n_steps, step0, dt, inelastic,
                                   spring_law, law_params, body_pos, body_rot, body_dq,
                                   body_wrench, body_support, spring_state, spring_dp,
                                   spring_kappa, spring_dmg, spring_wp, spring_wf, False,
-                                  spring_force)
+                                  spring_force, True)
         else:
             elastic_spring_pass(phase_ptr, group_ptr, spring_bodies, spring_arm_a,
                                 spring_arm_b, spring_frame0, spring_n0, spring_k, body_pos,
@@ -274,8 +319,8 @@ def run_dynamic(n_steps, step0, dt, inelastic,
                           body_mass, body_inertia, body_pos, body_pos0, body_quat,
                           body_quat0, body_vel, body_angmom, body_rot, body_dq,
                           body_fext, body_mext, body_ffol, body_mfol, body_load_hist, gravity,
-                          damping_alpha, dof_kind, dof_value, dof_hist, hist_ptr, hist_t,
-                          hist_a, body_work, body_damp, body_reaction)
+                          damping_alpha, damping_local, dof_kind, dof_value, dof_hist,
+                          hist_ptr, hist_t, hist_a, body_work, body_damp, body_reaction)
     return step0 + n_steps
 
 

@@ -18,6 +18,7 @@ by more than ENERGY_TOLERANCE (plus a floor), whatever absorbs the excess
 (an instability that plasticity soaks up shows as plastic energy).  Either
 stops the run with the step and time (RunFailed: exit 1).
 """
+import dataclasses
 import time as _time
 
 import numpy as np
@@ -28,6 +29,10 @@ from ..physics.inelastic import inelastic_spring_pass
 from ..physics.poisson import poisson_args, poisson_pass
 from ..physics.springs import elastic_spring_pass
 from .checkpoint import Checkpointer, Interrupted, SignalGuard
+
+#: State attributes of the inelastic spring history, in the kernel's order
+SPRING_HISTORY = ("spring_state", "spring_dp", "spring_kappa", "spring_dmg", "spring_wp",
+                  "spring_wf")
 
 
 # Energy runaway at an output step: K + U + W_plastic + W_fracture + W_damping
@@ -55,22 +60,26 @@ class RunFailed(RuntimeError):
     """A run that stopped early (divergence, no convergence)."""
 
 
-def spring_pass(model, state):
+def spring_pass(model, state, substep=False):
     """Spring wrenches on the bodies (with the auxiliary stress of the
     Poisson correction, physics/poisson.py) and the force on body a of every spring
     (state.spring_force) at the current positions, for output and
     synchronisation: an inelastic pass works on copies of the spring history,
-    so repeating it at an output step changes nothing."""
+    so repeating it at an output step changes nothing; those copies, the
+    spring history at the current positions, are returned (None for an
+    elastic model).  `substep`: the
+    forces of the explicit time step (a strain-law spring breaking inside
+    the step keeps a share of its force, physics/inelastic.py)."""
     m = model
+    trial = None
     if m.inelastic:
+        trial = {k: getattr(state, k).copy() for k in SPRING_HISTORY}
         inelastic_spring_pass(m.phase_ptr, m.group_ptr, m.spring_bodies, m.spring_arm_a,
                               m.spring_arm_b, m.spring_frame0, m.spring_k, m.spring_area,
                               m.spring_h, m.spring_law, m.law_params, state.body_pos,
                               state.body_rot, state.body_dq, state.body_wrench,
-                              state.body_support, state.spring_state.copy(),
-                              state.spring_dp.copy(), state.spring_kappa.copy(),
-                              state.spring_dmg.copy(), state.spring_wp.copy(),
-                              state.spring_wf.copy(), True, state.spring_force)
+                              state.body_support, *trial.values(), True, state.spring_force,
+                              substep)
     else:
         elastic_spring_pass(m.phase_ptr, m.group_ptr, m.spring_bodies, m.spring_arm_a,
                             m.spring_arm_b, m.spring_frame0, m.spring_n0, m.spring_k,
@@ -81,6 +90,7 @@ def spring_pass(model, state):
         poisson_pass(m.inelastic, *poisson_args(m, state)[:8], state.spring_state,
                      state.spring_dmg, state.body_pos, state.body_rot, state.aux_g,
                      state.aux_p, state.body_wrench)
+    return trial
 
 
 def check_model(case, model):
@@ -123,10 +133,11 @@ def choose_dt(case, model):
     return dt, est
 
 
-def advance(model, state, n_steps, damping_alpha=0.0):
+def advance(model, state, n_steps, damping_alpha=0.0, damping_local=0.0):
     """Advance the state by n_steps explicit steps (compiled loop; the
     spring kernel is chosen once here: elastic, or inelastic when the model
-    has yield, rupture or cuts)."""
+    has yield, rupture or cuts).  Damping: mass-proportional α [1/s],
+    Cundall's local β (physics/integrate.py dynamic_body_pass)."""
     m = model
     state.step = run_dynamic(
         n_steps, state.step, state.dt, m.inelastic,
@@ -138,16 +149,20 @@ def advance(model, state, n_steps, damping_alpha=0.0):
         m.body_mass, m.body_inertia, state.body_pos, m.body_pos0, state.body_quat,
         m.body_quat0, state.body_vel, state.body_angmom, state.body_rot, state.body_dq,
         m.body_fext, m.body_mext, m.body_ffol, m.body_mfol, m.body_load_hist, m.gravity,
-        damping_alpha,
+        damping_alpha, damping_local,
         m.dof_kind, m.dof_value, m.dof_hist, m.hist_ptr, m.hist_t, m.hist_a,
         state.body_work, state.body_damp, state.body_reaction, m.poisson_on,
         *poisson_args(m, state))
 
 
-def synchronize(model, state):
-    """(v_n, L_n) at the current whole step, reactions at t_n."""
+def synchronize(model, state, trial=None):
+    """(v_n, L_n) at the current whole step, reactions at t_n.  `trial`: a
+    dict that gets the spring history at the current positions
+    (spring_pass), which the step from here will commit."""
     m = model
-    spring_pass(m, state)
+    hist = spring_pass(m, state, substep=True)
+    if trial is not None and hist is not None:
+        trial.update(hist)
     n = m.n_bodies
     vel = np.empty((n, 3))
     ang = np.empty((n, 3))
@@ -235,7 +250,9 @@ def run(case, model, recorder, *, max_steps=None, progress=None, chunk_steps=Non
         # the leapfrog's half-step state as saved: no start_half_step again
         state = restart[0]
         dt, est = state.dt, model.stable_dt()
-    alpha = float(getattr(getattr(case.solver, "damping", None), "alpha", 0.0) or 0.0)
+    damping = getattr(case.solver, "damping", None)
+    alpha = float(getattr(damping, "alpha", 0.0) or 0.0)
+    local = float(getattr(damping, "local", 0.0) or 0.0)
     end_time = case.solver.end_time
     n_total = int(np.ceil(end_time / dt - 1e-9))
     if max_steps is not None:
@@ -250,12 +267,20 @@ def run(case, model, recorder, *, max_steps=None, progress=None, chunk_steps=Non
     v_limit = 10.0 * c0
 
     def record():
-        vel, ang = synchronize(model, state)
-        ek = recorder.kinetic(vel, ang, state)
-        obs = {"kinetic": ek, "strain": recorder.strain_energy(state),
+        # the frame shows the springs at its own positions: the history the
+        # next step commits (breaks and damage at x_n booked with the forces
+        # that give v_n), not the one committed at x_n-1
+        trial = {}
+        vel, ang = synchronize(model, state, trial)
+        now = dataclasses.replace(state, **trial)
+        ek = recorder.kinetic(vel, ang, now)
+        obs = {"kinetic": ek, "strain": recorder.strain_energy(now),
                "external_work": external_work(model, state, state.body_work),
                "damping": float(np.sum(state.body_damp))}
-        return recorder.append(state, state.step, state.time, vel, ang, obs,
+        if local:
+            obs["kinetic_ratio"] = ek / obs["strain"] if obs["strain"] > 0 else 0.0
+            quasi.see(state.time, obs["kinetic_ratio"], obs["strain"])
+        return recorder.append(now, state.step, state.time, vel, ang, obs,
                                load_amplitude(model, state.time))
 
     e_floor = ENERGY_FLOOR * float(np.sum(model.body_mass)) * c0 ** 2
@@ -276,6 +301,7 @@ def run(case, model, recorder, *, max_steps=None, progress=None, chunk_steps=Non
                 f"{ENERGY_TOLERANCE:g}× the initial energy plus |external work| "
                 f"({supplied:.4g} J)")
 
+    quasi = QuasiStaticCheck(end_time)
     t_wall = _time.perf_counter()
     ckpt = Checkpointer(recorder, case)
     with SignalGuard() as guard:
@@ -287,14 +313,57 @@ def run(case, model, recorder, *, max_steps=None, progress=None, chunk_steps=Non
             e0 = float(restart[1]["e0"])
         ckpt.mark(state)
         _loop(model, state, recorder, progress, record, energy_runaway, ckpt, guard, e0,
-              n_total, out_every, chunk_steps, alpha, v_limit, dt, est)
+              n_total, out_every, chunk_steps, (alpha, local), v_limit, dt, est)
         ckpt.write(state, e0)
     wall = _time.perf_counter() - t_wall
-    return dict(steps=state.step, dt=dt, dt_estimate=est, wall_time=wall, state=state)
+    return dict(steps=state.step, dt=dt, dt_estimate=est, wall_time=wall, state=state,
+                warnings=[quasi.warning()] if local and quasi.warning() else [])
+
+
+#: a quasi-static explicit run whose kinetic energy exceeds this fraction of
+#: its strain energy is not quasi-static (Abaqus/Explicit's guideline: the
+#: kinetic energy a small fraction, 5-10 %, of the internal energy
+#: through most of the process; Abaqus Analysis User's Guide, "Quasi-static
+#: analysis")
+QUASI_STATIC_RATIO = 0.05
+#: ... in more than this fraction of the frames checked (a crack that snaps
+#: in one frame is dynamic there, not the whole run)
+QUASI_STATIC_FRAMES = 0.1
+
+
+class QuasiStaticCheck:
+    """Watches the kinetic-to-strain energy ratio of a run with local
+    damping over the frames after the first 10 % of the run (before, the
+    strain energy is nearly zero and the ratio meaningless): a warning when
+    it exceeds QUASI_STATIC_RATIO in more than QUASI_STATIC_FRAMES of them."""
+
+    def __init__(self, end_time):
+        self.t_from = 0.1 * end_time
+        self.worst = (0.0, 0.0)
+        self.frames_over = 0
+        self.frames = 0
+
+    def see(self, t, ratio, strain):
+        if t < self.t_from or strain <= 0:
+            return
+        self.frames += 1
+        if ratio > QUASI_STATIC_RATIO:
+            self.frames_over += 1
+        if ratio > self.worst[0]:
+            self.worst = (ratio, t)
+
+    def warning(self):
+        ratio, t = self.worst
+        if self.frames_over <= QUASI_STATIC_FRAMES * self.frames:
+            return None
+        return (f"not quasi-static: the kinetic energy reached {100 * ratio:.3g} % of the "
+                f"strain energy at t = {t:.4g} s ({self.frames_over} of {self.frames} frames "
+                f"over {100 * QUASI_STATIC_RATIO:g} %); load more slowly (a longer "
+                f"solver.end_time and load history) or raise solver.damping.local")
 
 
 def _loop(model, state, recorder, progress, record, energy_runaway, ckpt, guard, e0,
-          n_total, out_every, chunk_steps, alpha, v_limit, dt, est):
+          n_total, out_every, chunk_steps, damping, v_limit, dt, est):
     obs = {}
     over = 0                  # output frames in a row over the energy bound
     if progress:
@@ -302,7 +371,7 @@ def _loop(model, state, recorder, progress, record, energy_runaway, ckpt, guard,
     while state.step < n_total:
         next_out = (state.step // out_every + 1) * out_every
         n = min(next_out, n_total, state.step + chunk_steps) - state.step
-        advance(model, state, n, alpha)
+        advance(model, state, n, *damping)
         pos = state.body_pos
         if not np.all(np.isfinite(pos)) or not np.all(np.isfinite(state.body_angmom)) or \
                 np.abs(state.body_vel).max() > v_limit:
