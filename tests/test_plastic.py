@@ -49,6 +49,25 @@ def test_B1_plastic_collapse_load(run_case, ends, factor):
     assert h.observables["plastic"][-1] > 0
 
 
+@pytest.mark.parametrize("ends, factor", [("pinned", 4.0), ("clamped", 8.0)])
+def test_B1_collapse_load_by_newton_in_20_increments(run_case, ends, factor):
+    """The same collapse loads by Newton path following (solver.method:
+    newton; the consistent tangent of the return mapping for the yielding
+    springs, issue 13 item 3): 20 increments of the central deflection,
+    within 5 % of 4Mp/L and 8Mp/L on a plateau (the last two increments
+    within 1 %)."""
+    P_lim = factor * SY * 0.1 * 0.1 ** 2 / 4 / 2.0
+    text = b1_case(ends, 0.03 if ends == "pinned" else 0.012).replace(
+        "solver: {mode: static, load_steps: 6, tolerance: 1.0e-4}",
+        "solver: {mode: static, method: newton, load_steps: 20, tolerance: 1.0e-6}")
+    h = run_case(text)
+    load = -h.observables["load"]
+    assert len(h.time) == 21                   # every increment converged, none cut
+    assert load[-1] == pytest.approx(P_lim, rel=5e-2)
+    assert load[-2] == pytest.approx(load[-1], rel=1e-2)
+    assert h.observables["plastic"][-1] > 0
+
+
 # --------------------------------------------------------------- VERIFICATION C
 from pathlib import Path  # noqa: E402
 

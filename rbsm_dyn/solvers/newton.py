@@ -10,7 +10,10 @@ driven to zero on the free DOFs.  The iteration matrix is the secant
 stiffness Σ B_sᵀ C_s B_s (stiffness.py) in the present configuration,
 plus the geometric stiffness of the spring forces once rotations are
 finite (solvers/assembly.py): each
-spring's (k_n, k_s, k_t) times (1 − d) for a damaged spring, a closed
+spring's (k_n, k_s, k_t) times (1 − d) for a damaged spring (the
+consistent tangent while its damage grows), the consistent tangent of the
+return mapping for a yielding one (perfect plasticity: a zero modulus,
+floored at OPEN_FRACTION), a closed
 or touching contact at full stiffness (its tangential springs too when it
 has friction), an open crack at 10⁻⁶ of it (Rots & Invernizzi
 2004's secant "sequentially linear" stiffness is always positive, so the
@@ -49,7 +52,9 @@ import scipy.sparse.linalg as spla
 from ..model import new_state
 from ..physics.inelastic import inelastic_spring_pass
 from ..physics.integrate import DISPLACEMENT, FREE, VELOCITY
-from ..physics.laws import (BROKEN, P_CRIT, P_FT, P_GF, P_GS, P_MU, P_RS, P_RUPT)
+from ..physics.laws import (BROKEN, P_COH, P_CRIT, P_FT, P_GF, P_GS, P_MU, P_RS, P_RUPT,
+                            P_SY, P_TANPHI, P_TENSION)
+from ..physics.laws.plastic import MOHR_COULOMB, plastic_return
 from ..physics.laws.rupture import MIXED, SOFTENING, mixed_mode_damage, softening_damage
 from ..physics.poisson import poisson_args, poisson_pass
 from ..physics.rotation import quat_mul_np
@@ -274,6 +279,13 @@ def _local_tangents(spring_k, spring_area, spring_h, spring_law, law_params, sta
         out[s, 0, 0] = kn * (1.0 - D) if en > 0.0 else kn
         out[s, 1, 1] = ks * (1.0 - D)
         out[s, 2, 2] = kt * (1.0 - D)
+        if P[P_CRIT] > 0 and D == 0.0:
+            # yielding: the consistent tangent of the return mapping
+            # (Simo & Hughes 1998, §3.3: ∂σ/∂ε of the closest-point
+            # projection), by central differences of plastic.py's return
+            if _plastic_tangent(P, kn, ks, kt, spring_area[s], en, es, et, out[s]):
+                any_soft |= P[P_CRIT] == MOHR_COULOMB     # non-associated: unsymmetric
+            continue
         if not tangent or D <= dmg0[s] or D >= 1.0 or P[P_CRIT] > 0:
             continue
         area = spring_area[s]
@@ -306,6 +318,45 @@ def _local_tangents(spring_k, spring_area, spring_h, spring_law, law_params, sta
                 out[s, i, j] -= fvec[i] * g[j]
         any_soft = True
     return any_soft
+
+
+@nb.njit(cache=True)
+def _plastic_forces(P, kn, ks, kt, area, en, es, et):
+    """Spring forces [N] of the trial elastic gap (en, es, et) [m] after
+    the return mapping (physics/inelastic.py's call of plastic_return)."""
+    gn, gs, gt, y = plastic_return(int(P[P_CRIT]), P[P_SY] * area, P[P_COH] * area,
+                                   P[P_TANPHI], P[P_TENSION] * area, kn, ks,
+                                   kn * en, ks * es, kt * et)
+    return gn, gs, gt, y
+
+
+@nb.njit(cache=True)
+def _plastic_tangent(P, kn, ks, kt, area, en, es, et, out):
+    """out (3 × 3) = ∂(returned forces)/∂(gap) of a spring that yields at
+    its trial gap, floored at OPEN_FRACTION of the elastic stiffness on the
+    diagonal (perfect plasticity has a zero modulus: the floor keeps a
+    collapse mechanism under displacement control solvable); False when the
+    spring does not yield."""
+    y = _plastic_forces(P, kn, ks, kt, area, en, es, et)[3]
+    if y == 0:
+        return False
+    e = np.array([en, es, et])
+    h = 1e-7 * (math.sqrt(en * en + es * es + et * et) + 1e-30)
+    for c in range(3):
+        ep = e.copy()
+        em = e.copy()
+        ep[c] += h
+        em[c] -= h
+        pn, ps, pt, _ = _plastic_forces(P, kn, ks, kt, area, ep[0], ep[1], ep[2])
+        mn, ms, mt, _ = _plastic_forces(P, kn, ks, kt, area, em[0], em[1], em[2])
+        out[0, c] = (pn - mn) / (2.0 * h)
+        out[1, c] = (ps - ms) / (2.0 * h)
+        out[2, c] = (pt - mt) / (2.0 * h)
+    k = (kn, ks, kt)
+    for r in range(3):
+        if out[r, r] < OPEN_FRACTION * k[r]:
+            out[r, r] = OPEN_FRACTION * k[r]
+    return True
 
 
 def _conj(q):
