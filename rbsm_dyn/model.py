@@ -158,7 +158,8 @@ class State:
     body_reaction (N, 3) [N]; step (int), dt [s].
     Inelastic springs (length S when Model.inelastic, else 0):
     spring_state (S,) int8; spring_dp (S, 3) [m] plastic gap or slip;
-    spring_kappa (S,) [m] largest opening; spring_dmg (S,) damage;
+    spring_kappa (S,) [m] largest opening (strain law: last equivalent
+    strain, physics/inelastic.py); spring_dmg (S,) damage;
     spring_wp, spring_wf (S,) [J] plastic and fracture dissipation.
     Poisson correction scratch (length 0 unless Model.poisson_on; not
     saved by checkpoints): aux_g (n_slots, 3) [1/m], aux_p (7, N)

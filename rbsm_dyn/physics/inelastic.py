@@ -9,7 +9,9 @@ the thread-safe schedule (springs.deposit, partition.py).
 Per-spring history (State): spring_state (S,) int8 (laws/__init__.py),
 spring_dp (S, 3) [m] plastic gap (intact) or slip (broken, components 1–2)
 in the spring frame, spring_kappa (S,) [m] largest opening (law tension) or
-the last step's equivalent opening (law mixed_mode), spring_dmg (S,)
+the last step's equivalent opening (law mixed_mode) or equivalent strain
+(law strain; once broken, the share λ of _crossing_share still to book,
+with the gap it acted on in spring_dp, for one step), spring_dmg (S,)
 damage, spring_wp, spring_wf (S,) [J] plastic (incl. friction) and
 fracture dissipation so far.
 
@@ -18,7 +20,8 @@ Order for an intact spring (laws in physics/laws/):
   2. trial force k (δ − δp), damage on tension and shear,
   3. return mapping onto the yield surface (plastic.py), δp and W_p grow,
   4. rupture by strain or full damage: the spring turns into contact and
-     the elastic energy it loses is W_f.
+     the elastic energy it loses is W_f (strain law in an explicit step,
+     `substep`: the energy at the crossing of ε_cr, _crossing_share).
 A broken spring is a contact (contact.py) until its gap |δ| exceeds the
 spring length h (opened, slid or turned by a whole cell): then the two
 cells have parted and the pair is never in contact again (spring_kappa =
@@ -62,15 +65,17 @@ def _crossing_share(r, rho):
     ½ (f_n + f_n+1)·Δx of each force over each step (Belytschko, Liu &
     Moran, Nonlinear Finite Elements, 2000, §6.2.4, energy balance), so a
     force f_n+1 = λ k e_n+1 at the breaking step, then nothing, takes
-    U_n + ½ f_n·Δe + λ k e_n+1·Δe out of the motion (its half of the next
-    step counted with the same Δe).  On a straight path e_n = r e_n+1 that
-    is (r + 2λ (1 − r)) U, U = ½ k e_n+1², and it equals the energy at the
-    crossing, ρ² U, for λ = (ρ² − r)/(2 (1 − r)): ½ when the threshold is
-    met at the end of the step, −r/2 (the push that takes back the pull
-    applied past the crossing) when it was met at its start.  Breaking with
-    nothing (λ = 0) and booking U instead would release the energy of the
-    overshoot, which grows with dt² in fast fracture (a 4-16× larger
-    fracture energy at 4× the step) and is not taken from the motion."""
+    U_n + ½ (f_n + f_n+1)·Δe_n + ½ f_n+1·Δe_n+1 out of the motion.  On a
+    straight path e_n = r e_n+1 the first two terms are (r + λ (1 − r)) U,
+    U = ½ k e_n+1² (booked at the breaking step), the last is booked at the
+    next step from the stored λ and e_n+1; with Δe_n+1 ≈ Δe_n the sum is
+    (r + 2λ (1 − r)) U, the energy at the crossing, ρ² U, for
+    λ = (ρ² − r)/(2 (1 − r)): ½ when the threshold is met at the end of
+    the step, −r/2 (the push that takes back the pull applied past the
+    crossing) when it was met at its start.  Breaking with nothing (λ = 0)
+    and booking U instead released the energy of the overshoot, which grows
+    with dt² in fast fracture (8-16× the fracture energy at 4× the step)
+    and had not been taken from the motion."""
     if r > rho:
         r = rho
     if r < 0.0:
@@ -203,20 +208,40 @@ def _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
                 e_in = 0.5 * (fn * en + fs * es + ft * et)
                 released = e_in - _contact_energy(kn, dn)
                 if crossed:
-                    # threshold crossed inside the step: the energy at the
-                    # crossing, (ε_cr/ε)² of the energy now (see _crossing_share)
-                    rho = P[P_EPSCR] / eps
-                    released *= rho * rho
+                    # threshold crossed inside the step: the work of the
+                    # released force over this step, (r + λ (1 − r)) of the
+                    # energy now (_crossing_share); the rest of the share's
+                    # work is booked at the next step
+                    r = eps0 / eps
+                    released *= r + lam * (1.0 - r)
                 spring_wf[s] += released
                 state = BROKEN
                 spring_dp[s, 0] = 0.0
                 spring_dp[s, 1] = ds
                 spring_dp[s, 2] = dt
+                if rupt == STRAIN:
+                    spring_kappa[s] = 0.0        # broken: no share pending ...
                 if crossed:
                     # intact force at this step, minus what contact takes over below
                     gn, gs, gt = fn, fs, ft
+                    # ... unless kept: λ and the released gap (the slip
+                    # memory holds δs, δt until the next step)
+                    spring_kappa[s] = lam
+                    spring_dp[s, 0] = dn if dn > 0.0 else 0.0
             spring_state[s] = state
         if state >= BROKEN:
+            lam0 = spring_kappa[s]
+            if P[P_RUPT] == STRAIN and not crossed and lam0 != 0.0 and lam0 != np.inf:
+                # the share λ k e_n kept at the breaking step n does work
+                # over this step too (trapezoidal rule, _crossing_share):
+                # ½ λ k e_n·(δ − e_n), fracture energy
+                e0 = spring_dp[s, 0]
+                e1 = spring_dp[s, 1]
+                e2 = spring_dp[s, 2]
+                spring_wf[s] += 0.5 * lam0 * (kn * e0 * (dn - e0) + ks * e1 * (ds - e1)
+                                              + kt * e2 * (dt - e2))
+                spring_kappa[s] = 0.0
+                spring_dp[s, 0] = 0.0
             if (dn * dn + ds * ds + dt * dt > spring_h[s] * spring_h[s]
                     or n2 < N2_PARTED):
                 # moved apart by a whole spring length (opened, slid or turned

@@ -4,7 +4,9 @@
   strain reaches ε_cr.  Equivalent strain of the gap δ over the length h,
   of von Mises form on (ε, γ): ε_eq = √(⟨δn⟩² + (δs² + δt²)/3) / h
   (⟨x⟩ = max(x, 0): closing never breaks a spring).  The elastic energy
-  the spring held is released as fracture energy.
+  the spring held is released as fracture energy; in an explicit step that
+  crosses ε_cr, the energy it held at the crossing (physics/inelastic.py
+  _crossing_share), so that the fracture energy does not grow with dt.
 * softening (crack band; Bažant & Oh, Mater. Struct. 16, 155, 1983): linear
   tension softening on the normal opening with secant unloading (scalar
   damage D on both normal and shear springs).  Peak at δ0 = f_t/k_n, full
