@@ -374,6 +374,7 @@ def _info(case, model, threads):
     else:
         print(f"frames      {e.frames}")
     print(f"memory      {format_bytes(e.memory_bytes)} (model {format_bytes(e.model_bytes)}, "
+          f"build temporaries {format_bytes(e.build_bytes)}, "
           f"state {format_bytes(e.state_bytes)}, output buffers {format_bytes(e.buffer_bytes)}"
           + (f", stiffness matrix {format_bytes(e.matrix_bytes)}" if e.matrix_bytes else "")
           + ")")

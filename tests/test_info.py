@@ -92,10 +92,10 @@ def test_info_of_the_other_modes_gives_their_frames(tmp_path, capsys):
 
 
 def test_memory_estimate_against_traced_allocations(tmp_path):
-    """The estimate (model + state + output buffers) is the memory a run
-    holds: NumPy's allocations traced over building the model and 40 steps
-    peak between 1 and 2 times it (temporaries of the build and the
-    output), and the model alone holds within 25 % of its part."""
+    """The estimate (model, build temporaries, state, output buffers) is
+    the memory a run holds: NumPy's allocations traced over building the
+    model and 40 steps peak at 0.7-1.5 times it, and the model alone holds
+    within 25 % of its part."""
     case = tmp_path / "big.yaml"
     case.write_text(BEAM.replace("[12, 1, 3]", "[40, 2, 6]"), encoding="utf-8")
     c = load_case(case)
@@ -116,5 +116,69 @@ def test_memory_estimate_against_traced_allocations(tmp_path):
     finally:
         tracemalloc.stop()
     assert e.model_bytes / 1.25 < held < e.model_bytes * 1.25, (held, e.model_bytes)
-    assert e.memory_bytes < peak < 2 * e.memory_bytes, (peak, e.memory_bytes)
+    assert 0.7 * e.memory_bytes < peak < 1.5 * e.memory_bytes, (peak, e.memory_bytes)
     assert np.isfinite(e.dt_estimate) and e.frames > 1
+
+
+#: a run of a few steps in a fresh process: its peak resident memory (the
+#: kernel's ru_maxrss) after a tiny run of the same kind has loaded Python,
+#: NumPy, SciPy, h5py and the compiled kernels, and the estimate
+MEASURE = r"""
+import json, resource, sys
+from rbsm_dyn.__main__ import main
+tiny, big, out = sys.argv[1:4]
+assert main([tiny, "--out", out + ".tiny.h5", "--quiet", "--max-steps", "5"]) == 0
+base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+assert main([big, "--out", out, "--quiet", "--max-steps", "5"]) == 0
+peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+from rbsm_dyn.case import load_case
+from rbsm_dyn.io.estimate import estimate
+from rbsm_dyn.model import build_model
+case = load_case(big)
+e = estimate(case, build_model(case))
+print(json.dumps(dict(peak=peak - base, estimate=e.memory_bytes, bodies=e.n_bodies,
+                      model=e.model_bytes)))
+"""
+
+VORONOI = """\
+name: memory
+domain: {box: [[0, 0, 0], [0.2, 0.1, 0.1]]}
+mesh: {kind: voronoi, size: SIZE, seed: 1}
+materials:
+  steel: {density: 8000, young: 200.0e9, poisson: 0.2}
+boundary: [{face: xmin, fix: all}]
+initial: [{velocity: [0, 0, 1.0]}]
+solver: {mode: dynamic, end_time: 1.0e-4}
+output: {interval: 1.0e-6, fields: [position, orientation, velocity]}
+"""
+
+
+def test_memory_estimate_against_the_measured_peak_of_a_run(tmp_path):
+    """info estimated half the real peak of a large build (issue 14: 6.5
+    GiB against 12.7 GB at 5·10⁵ bodies): it counted the model, state and
+    buffers but not what the build holds besides them at its peak.  A
+    19 264-cell Voronoi block (728 000 spring points) run for 5 steps in a
+    fresh process peaks (ru_maxrss, less that of a tiny run before it) at
+    0.7-1.5 × the estimate (measured: 484 MiB against 451 MiB; 246 MiB
+    without the build's share)."""
+    import json
+    import subprocess
+    import sys
+    tiny = tmp_path / "tiny.yaml"
+    tiny.write_text(VORONOI.replace("SIZE", "0.05"), encoding="utf-8")
+    big = tmp_path / "big.yaml"
+    big.write_text(VORONOI.replace("SIZE", "0.0047"), encoding="utf-8")
+    env = dict(__import__("os").environ, NUMBA_NUM_THREADS="1")
+    # a first process fills Numba's cache: compiling in the measuring one
+    # would raise its baseline by hundreds of MB (LLVM)
+    r = subprocess.run([sys.executable, "-m", "rbsm_dyn", str(tiny), "--out",
+                        str(tmp_path / "warm.h5"), "--quiet", "--max-steps", "5"], env=env,
+                       capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+    r = subprocess.run([sys.executable, "-c", MEASURE, str(tiny), str(big),
+                        str(tmp_path / "run.h5")], env=env, capture_output=True, text=True,
+                       timeout=600)
+    assert r.returncode == 0, r.stderr
+    m = json.loads(r.stdout.strip().splitlines()[-1])
+    assert m["bodies"] > 18000
+    assert 0.7 * m["estimate"] < m["peak"] < 1.5 * m["estimate"], m

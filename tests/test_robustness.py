@@ -10,6 +10,8 @@ value, or the file), the files left intact, the values finite.
 6      truncated or damaged histories fail fast, naming the file
 7, 8   options are validated (exit 2, no traceback); Ctrl-C exits 130
 9      an oversized case file is refused by its size; a long list is no alias bomb
+10     plot reads a long history in bounded memory; export without body fields
+       writes the cells once (info's memory estimate: tests/test_info.py)
 11     directories and files that are not HDF5 are named as such
 """
 import os
@@ -551,6 +553,106 @@ def test_long_list_under_an_unknown_key_is_an_unknown_key(tmp_path, capsys, monk
     code, _, err = _run(["check", bombed], capsys)
     line = _one_error_line(err)
     assert code == 2 and "alias bomb" in line, line
+
+
+# ------------------------------------------------------------------ 10: bounded memory, export
+
+def _stretched_history(src, dst, frames):
+    """A copy of history ``src`` grown to ``frames`` frames: its positions
+    and observables (with their steps and times) repeated cyclically,
+    written in slices; the other series keep their length (the reader
+    truncates to the shortest).  Returns the bytes of the positions."""
+    import shutil
+    shutil.copyfile(src, dst)
+    with h5py.File(dst, "r+") as f:
+        n0 = int(f.attrs["frames"])
+        dt = float(f["observables/kinetic/time"][1] - f["observables/kinetic/time"][0])
+        groups = ["particles/bodies/position"] + [f"observables/{k}" for k in f["observables"]]
+        for name in groups:
+            g = f[name]
+            v0 = g["value"][:n0]
+            for ds in g.values():
+                ds.resize(frames, axis=0)
+            for a in range(n0, frames, 20000):
+                z = min(frames, a + 20000)
+                rows = np.arange(a, z)
+                g["value"][a:z] = v0[rows % n0]
+                g["step"][a:z] = rows
+                g["time"][a:z] = rows * dt
+        f.attrs["frames"] = frames
+        return f["particles/bodies/position/value"].id.get_storage_size()
+
+
+#: run `plot` on a small history (imports, fonts), then on the big one, in a
+#: fresh process: the second's peak resident memory above the first's
+PLOT_PEAK = r"""
+import resource, sys
+from rbsm_dyn.__main__ import main
+small, big, out = sys.argv[1:4]
+assert main(["plot", small, "--out", out + ".small.png", "--quiet"]) == 0
+base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+assert main(["plot", big, "--out", out]) == 0
+print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024 - base)
+"""
+
+
+def test_plot_reads_a_long_history_in_bounded_memory(tmp_path, capsys):
+    """plot read the whole history (902 MB of memory for an 823 MB file).
+    Now it reads only the observables it draws, in slices of 65 536
+    frames, and draws at most 2 × 20 000 points per series: a 387 MB
+    history (350 000 frames, 302 MB of positions) is plotted with less
+    than 60 MB of peak memory more than a 22-frame one (measured: none
+    more; 417 MB more before), and the largest balance error it reports is
+    that of every frame (the repeated frames of the small run: the same
+    figure)."""
+    from post_case import run_beam
+    small = run_beam(tmp_path)
+    big = tmp_path / "long.h5"
+    positions = _stretched_history(small, big, 350_000)
+    assert positions > 250e6
+    code, out, _ = _run(["plot", small, "--out", tmp_path / "small.png"], capsys)
+    assert code == 0
+    expect = re.search(r"error ≤ ([0-9.]+%)", out).group(1)
+    r = subprocess.run([sys.executable, "-c", PLOT_PEAK, str(small), str(big),
+                        str(tmp_path / "long.png")], env=_env(), capture_output=True,
+                       text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+    lines = r.stdout.strip().splitlines()
+    extra = int(lines[-1])
+    assert extra < 60e6, extra
+    assert f"error ≤ {expect}" in lines[-2], (lines, expect)
+    assert (tmp_path / "long.png").stat().st_size > 10_000
+
+
+def test_export_of_a_history_without_body_fields_writes_the_cells_once(tmp_path, capsys):
+    """A history without positions (or any other field the cells are drawn
+    from) gave one identical cells file per frame.  Now the cells are
+    written once and cells.pvd lists that file once, and export says so;
+    the faces, whose spring_state is in the history, still get one file per
+    frame, with the cracks of each."""
+    from post_case import BEAM, run_beam
+    text = BEAM.replace("fields: [position, orientation, velocity, angular_velocity, "
+                        "spring_state]", "fields: [spring_state]")
+    assert text != BEAM
+    path = run_beam(tmp_path, text)
+    h = rbsm_dyn.open_history(path)
+    assert h.position is None and h.frames == 22
+    code, out, err = _run(["export", path, "--out", tmp_path / "vtk"], capsys)
+    assert code == 0, err
+    assert "the cells are the same at every frame, written once" in out, out
+    cells = sorted((tmp_path / "vtk" / "cells").iterdir())
+    faces = sorted((tmp_path / "vtk" / "faces").iterdir())
+    assert [c.name for c in cells] == ["frame_000000.vtu"]
+    assert len(faces) == 22
+    pvd = (tmp_path / "vtk" / "cells.pvd").read_text()
+    assert pvd.count("<DataSet") == 1
+    assert (tmp_path / "vtk" / "faces.pvd").read_text().count("<DataSet") == 22
+    # with the positions in the history, one cells file per frame as before
+    (tmp_path / "full").mkdir()
+    code, out, err = _run(["export", run_beam(tmp_path / "full"), "--out", tmp_path / "vtk2"],
+                          capsys)
+    assert code == 0 and "note" not in out
+    assert len(list((tmp_path / "vtk2" / "cells").iterdir())) == 22
 
 
 # ------------------------------------------------------------------ 11: messages

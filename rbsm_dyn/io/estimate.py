@@ -13,9 +13,19 @@
   /modes group is added (M × N × 6 float64).  This is the size of the file
   that the run leaves, within a few per cent (tests/test_info.py: a short
   run's file is within a factor 1.1 of the estimate).
-* memory: the bytes of every array of the Model (mesh included) and of the
-  explicit State, plus the per-frame output buffers (the peak of a dynamic
-  or static run; Python and Numba themselves add about 150 MB).  Linear and
+* memory: the peak resident memory of the run beyond Python, NumPy and
+  Numba themselves (about 150-250 MB): the bytes of every array of the
+  Model (mesh included) and of the explicit State, the per-frame output
+  buffers, and what the build holds besides the model at its peak
+  (BUILD_PEAK_EXTRA × the model's bytes: the tessellation's and the spring
+  tables' temporaries, which the allocator keeps for the run).  Measured
+  (ru_maxrss of a run of 5 steps less that of a tiny run; git 3ce72e9 +
+  this change): Voronoi box 9 259 cells 219 MiB, 19 264 cells 484 MiB;
+  blocks 16 000 cells 108 MiB, 54 000 cells 428 MiB, where model + state +
+  buffers alone are 117, 246, 73 and 248 MiB (0.51-0.68 of the peak; issue
+  14: 6.5 GiB against 12.7 GB at 5·10⁵ bodies); with the build's share
+  the measured peaks are 0.83-1.07 × the estimate (tests/test_info.py: a
+  19 264-cell Voronoi run within 0.7-1.5×).  Linear and
   modal modes add the assembled sparse stiffness (36 entries per body and 72
   per touching pair, plus 9 per pair of bodies that share a neighbour when
   the Poisson correction is on; 12 bytes each, twice for the conversion to
@@ -38,6 +48,13 @@ __all__ = ["Estimate", "estimate", "count_frames", "array_bytes", "format_bytes"
 #: B-tree and object headers per chunk written (HDF5, measured order)
 CHUNK_OVERHEAD = 64
 
+#: memory the build holds at its peak besides the model's own arrays, as a
+#: share of them (module docstring: the measured run peaks less the
+#: model, state and buffers are 1.05-1.16 × the model's bytes on Voronoi
+#: meshes, 0.61-0.92 on blocks; tracemalloc puts the peak of the model
+#: build alone at 2.2 × the model's bytes)
+BUILD_PEAK_EXTRA = 1.0
+
 
 @dataclasses.dataclass
 class Estimate:
@@ -58,10 +75,12 @@ class Estimate:
     state_bytes: int              #: State arrays
     buffer_bytes: int             #: output buffers per frame
     matrix_bytes: int = 0         #: sparse stiffness (linear, modal)
+    build_bytes: int = 0          #: held by the build at its peak besides the model
 
     @property
     def memory_bytes(self) -> int:
-        return self.model_bytes + self.state_bytes + self.buffer_bytes + self.matrix_bytes
+        return (self.model_bytes + self.state_bytes + self.buffer_bytes + self.matrix_bytes
+                + self.build_bytes)
 
 
 def format_bytes(n: float) -> str:
@@ -197,4 +216,5 @@ def estimate(case, model, *, extra_observables=None, threads=1) -> Estimate:
                     out_every=every, frames=frames, static_bytes=int(static_bytes),
                     frame_bytes=float(frame_bytes), output_bytes=int(output),
                     model_bytes=int(model_bytes), state_bytes=int(state_bytes),
-                    buffer_bytes=int(buffer_bytes), matrix_bytes=int(matrix))
+                    buffer_bytes=int(buffer_bytes), matrix_bytes=int(matrix),
+                    build_bytes=int(BUILD_PEAK_EXTRA * model_bytes))

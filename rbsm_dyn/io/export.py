@@ -26,6 +26,12 @@ writes, in DIR (default ``RUN_vtk/`` beside RUN.h5):
   face id), ``cell_a``, ``cell_b`` (-1 for the ground of a support).  An
   elastic frame gives an empty file.
 
+A history without any of the fields the cells are drawn from (position,
+orientation, velocity, angular_velocity, cell_stress) has the same cells
+at every frame: they are written once (the first frame's file, listed once
+in ``cells.pvd``), and so are the faces without the spring_state field;
+export says so.
+
 Every file carries field data ``time``, ``step`` and ``frame`` (frame index
 in the history).  The ``.pvd`` collections hold the time of each frame
 (the load factor in static mode, the mode number in modal mode).  Points
@@ -52,6 +58,13 @@ STRESS_MEASURES = ("sxx", "syy", "szz", "sxy", "syz", "sxz", "von_mises",
 
 #: frames read from the file at a time (memory bound for long histories)
 BLOCK_FRAMES = 32
+
+#: series the cells' files are drawn from (without any, every frame's is the same)
+CELL_SERIES = ("particles/bodies/position", "particles/bodies/orientation",
+               "particles/bodies/velocity", "particles/bodies/angular_velocity",
+               "particles/bodies/stress")
+#: the series the faces' files are drawn from
+FACE_SERIES = "springs/state"
 
 
 def _pv():
@@ -217,30 +230,46 @@ def export(path, out_dir=None, *, every: int = 1, frames=None, log=None) -> dict
         idx = frame_indices(frames, T)
     (out / "cells").mkdir(parents=True, exist_ok=True)
     (out / "faces").mkdir(parents=True, exist_ok=True)
+    # a history without the series the cells or the faces are drawn from
+    # would give the same file at every frame: write it once (the .pvd
+    # lists it once, ParaView shows it at every time) and say so
+    cells_vary = any(p in head.series for p in CELL_SERIES)
+    faces_vary = FACE_SERIES in head.series
+    notes = []
+    if len(idx) > 1 and not cells_vary:
+        notes.append("the history has none of the fields position, orientation, velocity, "
+                     "angular_velocity, cell_stress: the cells are the same at every frame, "
+                     "written once (reference configuration)")
+    if len(idx) > 1 and not faces_vary:
+        notes.append("the history has no spring_state field: the faces are the same at every "
+                     "frame, written once")
     cell_entries, face_entries, n_faces = [], [], []
     template = None
     for b0 in range(0, len(idx), BLOCK_FRAMES):
         h = open_history(path, frames=idx[b0:b0 + BLOCK_FRAMES])
         for k in range(h.frames):
             fi = int(h.frame_index[k])
-            grid = cells_mesh(h, k, geom, template=template)
-            template = grid if template is None else template
-            cf = f"cells/frame_{fi:06d}.vtu"
-            grid.save(out / cf)
-            faces = faces_mesh(h, k, geom)
-            ff = f"faces/frame_{fi:06d}.vtp"
-            faces.save(out / ff)
-            cell_entries.append((h.time[k], cf))
-            face_entries.append((h.time[k], ff))
+            if cells_vary or not cell_entries:
+                grid = cells_mesh(h, k, geom, template=template)
+                template = grid if template is None else template
+                cf = f"cells/frame_{fi:06d}.vtu"
+                grid.save(out / cf)
+                cell_entries.append((h.time[k], cf))
+            if faces_vary or not face_entries:
+                faces = faces_mesh(h, k, geom)
+                ff = f"faces/frame_{fi:06d}.vtp"
+                faces.save(out / ff)
+                face_entries.append((h.time[k], ff))
             n_faces.append(faces.n_cells)
             if log:
-                log(f"frame {fi} (t = {h.time[k]:.6g}): {grid.n_cells} cells, "
+                log(f"frame {fi} (t = {h.time[k]:.6g}): {geom.n_cells} cells, "
                     f"{faces.n_cells} non-elastic faces")
     write_pvd(out / "cells.pvd", cell_entries)
     write_pvd(out / "faces.pvd", face_entries)
     return {"out": str(out), "frames": idx.tolist(), "n_cells": geom.n_cells,
             "n_points": len(geom.vertices), "faces": n_faces,
             "cells_pvd": str(out / "cells.pvd"), "faces_pvd": str(out / "faces.pvd"),
+            "cell_files": len(cell_entries), "face_files": len(face_entries), "notes": notes,
             "bytes": sum(f.stat().st_size for f in out.rglob("*") if f.is_file())}
 
 
@@ -268,6 +297,8 @@ def main(args) -> int:
         print(f"rbsm_dyn: export: {exc}", file=sys.stderr)
         return 2
     if not args.quiet:
+        for note in res["notes"]:
+            print(f"rbsm_dyn: export: note: {note}")
         nf = max(res["faces"]) if res["faces"] else 0
         print(f"rbsm_dyn: exported {len(res['frames'])} frames of {res['n_cells']} cells "
               f"(up to {nf} non-elastic faces) to {res['out']} "

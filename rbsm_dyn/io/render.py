@@ -244,10 +244,92 @@ NOT_PROBES = {name for name, _ in ENERGIES} | {"n_broken", "crack_area", "residu
                                                "frequency"}
 
 
+#: frames read at a time by ``plot`` (each series it draws, one slice)
+PLOT_CHUNK = 1 << 16
+#: points drawn per series at most: longer series are cut into this many
+#: buckets of frames, each drawn by its minimum and maximum (the envelope)
+PLOT_POINTS = 20000
+
+
+def _envelope(t, y, b):
+    """Min and max of y in buckets of b frames (b = 1: y itself), each pair
+    in frame order: (t, y) of at most 2 len(y)/b points."""
+    if b <= 1 or len(y) == 0:
+        return t, y
+    n = len(y)
+    full = n // b * b
+    base = np.arange(0, full, b)
+    blocks = y[:full].reshape(-1, b)
+    parts = [base + blocks.argmin(axis=1), base + blocks.argmax(axis=1)]
+    if full < n:                         # a last, shorter bucket
+        parts += [[full + int(np.argmin(y[full:]))], [full + int(np.argmax(y[full:]))]]
+    idx = np.unique(np.concatenate(parts))
+    return t[idx], y[idx]
+
+
+def read_observables(path, names, *, chunk=PLOT_CHUNK, points=PLOT_POINTS):
+    """What ``plot`` draws, read in bounded memory: only the observables
+    ``names`` (those with a value in every frame), PLOT_CHUNK frames at a
+    time, each reduced to its envelope of at most 2 × PLOT_POINTS points,
+    and the energy balance (History.energy_balance) with its largest error
+    and supplied energy over every frame.  Returns (case dict, {name: (t,
+    y)}, (t, error), largest |error|, largest |supplied|, units)."""
+    import json
+
+    import h5py
+    from .history import _open_h5, _read_dataset
+    f = _open_h5(str(path))
+    with f:
+        case = {}
+        if "parameters" in f and "case" in f["parameters"]:
+            case = json.loads(_read_dataset(f["parameters"]["case"]))
+        g = f["observables"] if "observables" in f else {}
+        lengths = {n: g[n]["value"].shape[0] for n in g
+                   if isinstance(g[n], h5py.Group) and "value" in g[n]
+                   and g[n]["value"].ndim == 1}
+        T = int(f.attrs["frames"]) if "frames" in f.attrs else min(lengths.values(), default=0)
+        have = [n for n in lengths if lengths[n] >= T]
+        want = [n for n in dict.fromkeys(list(names) + [k for k, _ in ENERGIES]) if n in have]
+        units = {n: g[n]["value"].attrs.get("unit", "1") for n in want}
+        units = {n: u.decode() if isinstance(u, bytes) else str(u) for n, u in units.items()}
+        b = max(1, math.ceil(T / points))
+        step = b * max(1, chunk // b)               # whole buckets per slice
+        t_name = want[0] if want else None
+        env = {n: ([], []) for n in want + ["error"]}
+        big_err = big_sup = 0.0
+        e0 = None
+        for a in range(0, T, step):
+            z = min(T, a + step)
+            t = np.asarray(g[t_name]["time"][a:z], np.float64) if t_name else np.zeros(0)
+            vals = {n: np.asarray(g[n]["value"][a:z], np.float64) for n in want}
+
+            def get(n):
+                return vals.get(n, np.zeros(z - a))
+            if e0 is None:
+                e0 = float(get("kinetic")[0] + get("strain")[0]) if z > a else 0.0
+            supplied = e0 + get("external_work")
+            error = (get("kinetic") + get("strain") + get("damping") + get("plastic")
+                     + get("fracture") - supplied)
+            big_err = max(big_err, float(np.max(np.abs(error), initial=0.0)))
+            big_sup = max(big_sup, float(np.max(np.abs(supplied), initial=0.0)))
+            vals["error"] = error
+            for n, v in vals.items():
+                tt, yy = _envelope(t, v, b)
+                env[n][0].append(tt)
+                env[n][1].append(yy)
+            del vals, error, supplied
+    series = {n: (np.concatenate(ts) if ts else np.zeros(0),
+                  np.concatenate(ys) if ys else np.zeros(0)) for n, (ts, ys) in env.items()}
+    err = series.pop("error")
+    return case, series, err, big_err, big_sup, units
+
+
 def plot(path, *, out=None, max_probes: int = 6) -> dict:
     """Energies and probes of history ``path`` over time, one PNG
-    (matplotlib, Agg).  Returns ``{"out", "probes", "balance_error"}``
-    (balance_error: largest |error| / largest supplied energy)."""
+    (matplotlib, Agg).  Reads only the observables it draws, in slices
+    (read_observables: bounded memory whatever the file's size).  Returns
+    ``{"out", "probes", "balance_error"}`` (balance_error: largest |error| /
+    largest supplied energy)."""
     try:
         import matplotlib
     except ImportError as exc:
@@ -257,35 +339,32 @@ def plot(path, *, out=None, max_probes: int = 6) -> dict:
     path = Path(path)
     out = Path(out) if out is not None else path.with_name(f"{path.stem}_plot.png")
     require_rbsm_history(path)
-    h = open_history(path)
-    case = h.case()
+    names = _observable_names(path)
+    probes = [n for n in names if n not in NOT_PROBES][:max_probes]
+    case, obs, (te, error), big_err, sup, units = read_observables(
+        path, probes + ["n_broken", "residual"])
+    probes = [n for n in probes if n in obs]
     mode = case.get("solver", {}).get("mode", "dynamic")
     xlabel = {"static": "load factor λ", "modal": "mode", "linear": "frame"}.get(mode, "time [s]")
-    probes = [n for n in h.observables if n not in NOT_PROBES and n not in h.observable_time]
-    probes = probes[:max_probes]
-    extra = [n for n in ("n_broken", "residual")
-             if n in h.observables and n not in h.observable_time and np.any(h.observables[n])]
+    extra = [n for n in ("n_broken", "residual") if n in obs and np.any(obs[n][1])]
     n_panels = 1 + len(probes) + len(extra)
     fig, axes = plt.subplots(n_panels, 1, sharex=True, figsize=(8, 2.4 + 2.0 * n_panels),
                              squeeze=False)
     axes = axes[:, 0]
-    t = h.time
     ax = axes[0]
     for key, label in ENERGIES:
-        if key in h.observables and np.any(h.observables[key] != 0):
-            ax.plot(t, h.observables[key], label=label)
-    eb = h.energy_balance()
-    ax.plot(t, eb["error"], "k--", lw=1, label="balance error")
-    sup = float(np.max(np.abs(eb["supplied"]), initial=0.0))
-    rel = float(np.max(np.abs(eb["error"]), initial=0.0) / sup) if sup > 0 else 0.0
+        if key in obs and np.any(obs[key][1] != 0):
+            ax.plot(*obs[key], label=label)
+    ax.plot(te, error, "k--", lw=1, label="balance error")
+    rel = big_err / sup if sup > 0 else 0.0
     ax.set_ylabel("energy [J]")
     ax.set_title(f"{case.get('name') or path.stem}: energies (balance error ≤ {rel:.2%} "
                  "of the supplied energy)", fontsize=10)
     ax.legend(fontsize=8, ncol=3)
     ax.grid(alpha=0.3)
     for ax, name in zip(axes[1:], probes + extra):
-        unit = h.units.get(f"observables/{name}", "1")
-        ax.plot(t, h.observables[name], color="C0")
+        unit = units.get(name, "1")
+        ax.plot(*obs[name], color="C0")
         ax.set_ylabel(f"{name} [{unit}]" if unit != "1" else name)
         ax.grid(alpha=0.3)
     axes[-1].set_xlabel(xlabel)
@@ -294,6 +373,21 @@ def plot(path, *, out=None, max_probes: int = 6) -> dict:
     fig.savefig(out, dpi=100)
     plt.close(fig)
     return {"out": str(out), "probes": probes, "balance_error": rel}
+
+
+def _observable_names(path):
+    """Names of the observables of a history with a value in every frame,
+    in file order (metadata only)."""
+    import h5py
+    from .history import _open_h5
+    f = _open_h5(str(path))
+    with f:
+        g = f["observables"] if "observables" in f else {}
+        lengths = {n: g[n]["value"].shape[0] for n in g
+                   if isinstance(g[n], h5py.Group) and "value" in g[n]
+                   and g[n]["value"].ndim == 1}
+        T = int(f.attrs["frames"]) if "frames" in f.attrs else min(lengths.values(), default=0)
+        return [n for n in lengths if lengths[n] >= T]
 
 
 # ------------------------------------------------------------------- CLI
