@@ -141,6 +141,87 @@ def test_sigkill_mid_run_then_restart_is_bitwise(ref, tmp_path):
     assert_same_run(out, ref_out)
 
 
+#: kill points of test_twenty_random_sigkills: (frames to wait for, then a
+#: delay [s]), drawn once from a fixed seed (a frame every ~15 ms of a run of
+#: ~0.6 s after ~3 s of start-up; frame 0 waits for nothing: the kill lands
+#: in the start-up or the build)
+KILL_POINTS = [(int(k), float(d)) for k, d in zip(
+    np.random.default_rng(14).integers(0, 42, 20),
+    np.random.default_rng(1014).uniform(0.0, 0.03, 20))]
+
+
+def _kill_at(procs):
+    """SIGKILL each (proc, out, frames k, delay) once its file holds k
+    frames (k = 0: at once) and the delay has passed; the runs go on side by
+    side meanwhile."""
+    due = {}
+    t0 = time.monotonic()
+    left = list(range(len(procs)))
+    while left:
+        now = time.monotonic()
+        for j in list(left):
+            proc, out, k, delay = procs[j]
+            if j not in due and (k == 0 or proc.poll() is not None or _frames(out) >= k):
+                due[j] = now + delay
+            if j in due and now >= due[j]:
+                os.kill(proc.pid, signal.SIGKILL)
+                proc.communicate()
+                left.remove(j)
+        if now - t0 > WAIT:
+            for j in left:
+                procs[j][0].kill()
+            raise AssertionError(f"no progress after {WAIT:g} s")
+        time.sleep(0.001)
+
+
+def test_twenty_random_sigkills_leave_a_readable_file_and_a_bitwise_restart(ref, tmp_path):
+    """SIGKILL at 20 random moments (KILL_POINTS: from the start-up to
+    after the end, inside frame and checkpoint writes where they fall; two
+    runs at a time).  Each time the output is either absent (killed before
+    its first frame: only the staged .tmp file, which a new run replaces)
+    or a readable history whose frames equal the reference's; --restart
+    then continues from its last checkpoint to the reference's final state
+    and history bit for bit, or is refused with exit 2 when there is no
+    checkpoint yet, or the run had completed (equal to the reference)."""
+    case, ref_out = ref
+    r = rbsm_dyn.open_history(ref_out)
+    seen = {"absent": 0, "no checkpoint": 0, "restarted": 0, "completed": 0}
+    outs = [tmp_path / f"kill{i}.h5" for i in range(len(KILL_POINTS))]
+    for i0 in range(0, len(KILL_POINTS), 2):
+        batch = range(i0, min(i0 + 2, len(KILL_POINTS)))
+        _kill_at([(_spawn(case, outs[i]), outs[i], *KILL_POINTS[i]) for i in batch])
+    for i, (k, delay) in enumerate(KILL_POINTS):
+        out = outs[i]
+        what = f"kill {i} (frame {k} + {delay * 1e3:.1f} ms)"
+        if not out.exists():
+            assert main([str(case), "--restart", str(out), "--quiet"]) == 2, what
+            assert main([str(case), "--out", str(out), "--quiet"]) == 0, what
+            assert not list(tmp_path.glob(f".kill{i}.h5.tmp-*")), what    # the stale one gone
+            assert_same_run(out, ref_out)
+            seen["absent"] += 1
+            continue
+        h = rbsm_dyn.open_history(out)
+        assert 0 < h.frames <= r.frames, what
+        for p, v in h.series.items():
+            assert np.all(np.isfinite(v)), (what, p)
+            assert np.array_equal(v, r.series[p][:h.frames]), (what, p)
+        if h.status == "completed":
+            assert_same_run(out, ref_out)
+            seen["completed"] += 1
+            continue
+        assert h.status == "running", (what, h.status)
+        if checkpoint_info(out) is None:
+            assert main([str(case), "--restart", str(out), "--quiet"]) == 2, what
+            assert rbsm_dyn.open_history(out).frames == h.frames, what
+            seen["no checkpoint"] += 1
+            continue
+        assert main([str(case), "--restart", str(out), "--quiet"]) == 0, what
+        assert_same_run(out, ref_out)
+        seen["restarted"] += 1
+    assert sum(seen.values()) == 20
+    assert seen["restarted"] >= 10, seen       # measured: 16-17 restarts, 3-4 before a checkpoint
+
+
 @pytest.mark.parametrize("sig, code", [(signal.SIGTERM, 143), (signal.SIGINT, 130)])
 def test_signal_writes_checkpoint_and_exits(ref, tmp_path, sig, code):
     """SIGTERM -> exit 143, SIGINT -> exit 130, each after finishing the
