@@ -11,7 +11,7 @@ with the spring values as given (`rupture.values: spring`):
 The material that these springs represent has f_t = F_T f_s, G_f = F_G G_s,
 so β = β_s F_G/F_T²: the rows (β, F_T, F_G) printed at the end are those of
 VORONOI_FRACTURE.  Material: E = 30 GPa, ρ = 2400, ν = 0, f_t = 3 MPa
-(only β matters), cell 2 mm.  About 1 min per specimen on one core.
+(only β matters), cell 2 mm.  About 10 s per specimen on one core.
 """
 import argparse
 import os
