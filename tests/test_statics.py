@@ -162,8 +162,10 @@ def test_A4_end_moment_rolls_beam_into_circle(run_case, fraction):
 def test_max_iterations_is_honoured(tmp_path):
     """`solver.max_iterations: 3` stops a load step after 3 iterations (it
     ran 200, the check interval, before): the run fails with exit 1 and a
-    message naming the load step, the 3 iterations and the residual ratio
-    against the tolerance, with the failed frame's step 3 in the history."""
+    message naming the load step, the 3 iterations and each criterion not
+    met with its value (the residual ratio against the tolerance, the
+    kinetic energy against the work of the loads), with the failed frame's
+    step 3 in the history."""
     import textwrap
     import rbsm_dyn
     from rbsm_dyn.__main__ import main
@@ -176,4 +178,7 @@ def test_max_iterations_is_honoured(tmp_path):
     h = rbsm_dyn.open_history(out)
     assert "did not converge in 3 iterations" in h.status
     assert "residual ratio" in h.status and "tolerance 1e-06" in h.status
+    # three iterations from rest under the load: the model still moves, and
+    # the message names that criterion too, with its value (issue 13)
+    assert "kinetic energy" in h.status and "× the work of the loads" in h.status
     assert int(h.step[-1]) == 3

@@ -98,7 +98,9 @@ def run(case, model, recorder, *, max_steps=None, progress=None, check_every=200
                    + np.sqrt(np.sum(state.body_reaction ** 2)))
             ratio = np.sqrt(resid.sum()) / max(ref, 1e-300)
             work = abs(load_work(m, state, lam))
-            done = ratio <= sol.tolerance and ek <= 1e-8 * max(work, 1e-300)
+            # converged: forces in balance and the model at rest (kinetic
+            # energy below KINETIC_FRACTION of the work of the loads)
+            done = ratio <= sol.tolerance and ek <= KINETIC_FRACTION * max(work, 1e-300)
             if progress:
                 progress.update(j - 1 + min(1.0, sol.tolerance / max(ratio, 1e-300)), lam, ratio,
                                 label="residual")
@@ -110,8 +112,7 @@ def run(case, model, recorder, *, max_steps=None, progress=None, check_every=200
                             state=state, converged=False)
             if it >= sol.max_iterations:
                 msg = (f"load step {j}/{n_steps} (λ = {lam:.3g}) did not converge in {it} "
-                       f"iterations: residual ratio {ratio:.3g} > tolerance {sol.tolerance:g}; "
-                       "raise solver.max_iterations or load_steps")
+                       f"iterations: {_unmet(ratio, sol.tolerance, ek, work)}")
                 record_frame(recorder, m, state, total, lam, ratio)
                 recorder.fail(msg)
                 raise RunFailed(msg)
@@ -119,6 +120,24 @@ def run(case, model, recorder, *, max_steps=None, progress=None, check_every=200
         record_frame(recorder, m, state, total, lam, ratio)
     return dict(iterations=iterations, wall_time=_time.perf_counter() - t_wall, state=state,
                 converged=True)
+
+
+#: a load step of dynamic relaxation is at rest when its kinetic energy is
+#: below this fraction of the work of the loads
+KINETIC_FRACTION = 1e-8
+
+
+def _unmet(ratio, tolerance, ek, work):
+    """The convergence criteria a load step did not meet, each with its
+    value, and what to do."""
+    unmet = []
+    if not ratio <= tolerance:
+        unmet.append(f"residual ratio {ratio:.3g} > tolerance {tolerance:g}")
+    if not ek <= KINETIC_FRACTION * max(work, 1e-300):
+        unmet.append(f"kinetic energy {ek:.3g} J > {KINETIC_FRACTION:g} × the work of the "
+                     f"loads ({work:.3g} J): the model still moves")
+    return ("; ".join(unmet) + "; raise solver.max_iterations, or use solver.method: newton "
+            "(path following, few iterations per load step)")
 
 
 PREDICTOR_MAX_BODIES = 5_000     # above this the sparse direct solve costs more than it saves
