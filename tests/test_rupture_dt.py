@@ -102,15 +102,16 @@ def test_a_face_torn_apart_releases_its_threshold_energy(run_case, speed, worst)
     ≈ 60 ε_cr h in a step (it broke with up to 200× that energy before, a
     balance error of 100 % that was taken for divergence); at 2 × 5 m/s the
     face nearly stops the blocks (at 1.4 ε_cr h) and breaks over a few
-    steps.  At dt_safety 0.9, 0.3 and 0.1 the energy balance closes to
+    steps.  At dt_safety 0.85, 0.3 and 0.1 the energy balance closes to
     round-off once the face has broken (K + U + W_f = K0 within 1e-9; it
-    is the trapezoidal work of the forces, booked exactly), and the fracture energy is the threshold
-    energy within `worst` (measured: 0.12 % at 50 m/s; 12 % at 5 m/s and
-    dt_safety 0.9, where the step is ω dt ≈ 1.3 of the pair's own
-    vibration) and within 1 % at dt_safety 0.1 (measured: 0.12 %, 0.18 %)."""
+    is the trapezoidal work of the forces, booked exactly), and the
+    fracture energy is the threshold energy within `worst` (measured:
+    0.12 % at 50 m/s; 12 % at 5 m/s and dt_safety 0.85, where the step is
+    ω dt ≈ 0.95 of the pair's own vibration) and within 1 % at dt_safety
+    0.1 (measured: 0.12 %, 0.18 %)."""
     h_cell, area = 0.01, 1.0e-4
     threshold = 0.5 * E * EPS ** 2 * area * h_cell
-    for safety in (0.9, 0.3, 0.1):
+    for safety in (0.85, 0.3, 0.1):
         text = PAIR.replace("V,", f"{speed},").replace("-V", f"-{speed}") \
             .replace("SAFETY", str(safety))
         h = run_case(textwrap.dedent(text))
@@ -122,6 +123,6 @@ def test_a_face_torn_apart_releases_its_threshold_energy(run_case, speed, worst)
         assert abs(total[-1] - k0) <= 1e-9 * k0
         # (at a frame while the face is loaded, the synchronized velocity's
         # own O((ω dt)²) term, stability.md (b): 1.4 % of K0 at 5 m/s and
-        # dt_safety 0.9; and the share's work still to come)
+        # dt_safety 0.85; and the share's work still to come)
         assert np.abs(total - k0).max() <= 2e-2 * k0
         assert o["fracture"][-1] == pytest.approx(threshold, rel=worst if safety > 0.1 else 1e-2)

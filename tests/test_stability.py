@@ -262,8 +262,9 @@ def test_contact_is_never_stiffer_than_the_intact_spring():
 
 def rupture_run(n_steps=300, every=5):
     """A Voronoi glass block (64 cells) thrown at (20, 0, −300) m/s onto a
-    breakable support, at dt = Model.stable_dt() itself (dt_safety 1):
-    every spring breaks and most are in closed contact during the impact."""
+    breakable support, at dt = Model.stable_dt() itself (beyond the
+    largest dt_safety a case may ask for, case.DT_SAFETY_MAX): every spring
+    breaks and most are in closed contact during the impact."""
     case, m = build(f"""
     name: rupture
     domain: {{box: [[0, 0, 0], [0.1, 0.1, 0.1]]}}
@@ -272,10 +273,10 @@ def rupture_run(n_steps=300, every=5):
       glass: {GLASS}
     boundary: [{{face: zmin, fix: all, breakable: true}}]
     initial: [{{velocity: [20.0, 0, -300.0]}}]
-    solver: {{mode: dynamic, end_time: 1.0, dt_safety: 1.0}}
+    solver: {{mode: dynamic, end_time: 1.0}}
     """)
-    dt, est = choose_dt(case, m)
-    assert dt == est
+    _, est = choose_dt(case, m)
+    dt = est
     st = new_state(m)
     st.dt = dt
     apply_initial(case, m, st)

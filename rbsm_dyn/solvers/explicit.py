@@ -28,6 +28,7 @@ from ..physics.integrate import run_dynamic, synchronized_momenta
 from ..physics.inelastic import inelastic_spring_pass
 from ..physics.poisson import poisson_args, poisson_pass
 from ..physics.springs import elastic_spring_pass
+from ..case import DT_SAFETY_MAX
 from .checkpoint import Checkpointer, Interrupted, SignalGuard
 
 #: State attributes of the inelastic spring history, in the kernel's order
@@ -116,8 +117,9 @@ def check_model(case, model):
 
 
 def choose_dt(case, model):
-    """(dt, stable estimate) [s]; CaseError for a fixed solver.dt above the
-    estimate or a model without a finite stable step (check_model)."""
+    """(dt, stable estimate) [s]; CaseError for a fixed solver.dt above
+    DT_SAFETY_MAX × the estimate (the largest dt_safety, case.py) or a model
+    without a finite stable step (check_model)."""
     check_model(case, model)
     est = model.stable_dt()
     fixed = getattr(case.solver, "dt", None)
@@ -126,9 +128,10 @@ def choose_dt(case, model):
                          f"{est} s): give solver.dt")
     dt = case.solver.dt_safety * est
     if fixed:
-        if case.solver.dt > est:
-            raise case.error(("solver", "dt"), f"exceeds the stable step estimate "
-                             f"{est:.4g} s (got {case.solver.dt:.4g})")
+        if case.solver.dt > DT_SAFETY_MAX * est:
+            raise case.error(("solver", "dt"), f"exceeds {DT_SAFETY_MAX:g} × the stable step "
+                             f"estimate {est:.4g} s = {DT_SAFETY_MAX * est:.4g} s (got "
+                             f"{case.solver.dt:.4g})")
         dt = case.solver.dt
     return dt, est
 
