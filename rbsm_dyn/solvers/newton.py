@@ -69,6 +69,7 @@ EASY_IT = 5             # an increment converged in this many lets the next grow
 OPEN_FRACTION = 1e-6    # secant stiffness of an open crack / the intact spring's
 LINE_SEARCH = (0.5, 4.0)   # bounds of the line-search step
 GEOMETRIC_ANGLE = 1e-3    # rotation [rad] beyond which the geometric stiffness is added
+DIVERGED_RATIO = 1e2    # residual ratio taken for a diverged iteration (the increment is cut)
 GMRES_MAX = 60          # GMRES iterations (no restart) before refactorising
 CG_MAX = 30             # CG iterations before the preconditioner is refactorised
 CG_RTOL = 1e-10         # relative residual of each linear solve
@@ -544,7 +545,13 @@ def _increment(nt, state, lam, goal, plan, tol, controlled):
         nt.set_prescribed(state, lam)
         r, tri = nt.residual(state, lam)
         prev = ratio
-        ratio = nt.norm(r) / max(nt.reference(r, lam, state.body_support[:nt.n]), 1e-300)
+        ref = nt.reference(r, lam, state.body_support[:nt.n])
+        ratio = nt.norm(r) / max(ref, 1e-300)
+        if k > 1 and (ref == 0.0 or ratio > DIVERGED_RATIO):
+            # no force left anywhere (every spring broken by a wild step: a
+            # residual of zero that is not equilibrium) or an imbalance far
+            # above the loads: the iteration has left the path; cut
+            return False, lam, k, ratio if ref > 0.0 else np.inf
         if k > 2 and not ratio < prev:
             nt.use_tangent = False
         if controlled:
