@@ -239,6 +239,9 @@ def _build_and_go(command, path, case, args, lock):
     except CaseError as exc:
         print(f"rbsm_dyn: {exc}", file=sys.stderr)
         return 2
+    from .solvers.output import probe_warnings
+    for note in probe_warnings(case, model):
+        print(f"rbsm_dyn: warning: {note}", file=sys.stderr)
     if command == "check":
         print(f"{path}: ok ({model.n_bodies} bodies, {model.n_springs} spring points)")
         for line in _selections(case, model):

@@ -220,3 +220,33 @@ def test_bad_probes_name_the_key(probe, key, message):
     e = exc.value
     assert e.path == key and message in e.message, str(e)
     assert e.line == 16                                  # the probe's line
+
+
+def test_points_either_side_of_a_cut_in_cells_on_one_side_are_warned(tmp_path, capsys):
+    """A crack-mouth probe whose two points lie either side of a cut's
+    plane but in cells whose centroids lie on one side (the cut splits the
+    springs by centroid side, so it measures no opening) gets a warning
+    naming the probe and the cut; points a cell away from the plane do not."""
+    from rbsm_dyn.__main__ import main
+    text = """
+    name: cut-probe
+    domain: {box: [[0, 0, 0], [0.04, 0.01, 0.01]]}
+    mesh: {kind: blocks, divisions: [4, 1, 1]}
+    materials:
+      m: {density: 2400, young: 30.0e9, poisson: 0.0}
+    cuts:
+      - {point: [0.015, 0, 0], normal: [1, 0, 0], within: [[0, -1, -1], [1, 1, 1]]}
+    boundary:
+      - {face: xmin, fix: all}
+    solver: {mode: dynamic, end_time: 1.0e-6}
+    output:
+      probes:
+        mouth: {quantity: relative_displacement, points: [[POINTS]], component: x}
+    """
+    for points, warned in (("0.012, 0.005, 0.005], [0.018, 0.005, 0.005", True),
+                           ("0.005, 0.005, 0.005], [0.025, 0.005, 0.005", False)):
+        path = tmp_path / "c.yaml"
+        path.write_text(textwrap.dedent(text).replace("POINTS", points))
+        assert main(["check", str(path)]) == 0
+        err = capsys.readouterr().err
+        assert ("output.probes.mouth: its points lie either side of cuts[0]" in err) == warned, err

@@ -179,6 +179,36 @@ def probe_plan(model, probes, case=None):
     return plan
 
 
+def probe_warnings(case, model):
+    """Warnings about relative-displacement probes by points that cannot
+    measure what they seem to: two points either side of a cut's plane
+    whose cells both lie on one side of it (a Voronoi cell straddles the
+    plane: `cuts` splits the springs by the side of the cells' centroids),
+    so the probe reads the deformation of one side, not the opening."""
+    notes = []
+    for name, plan in probe_plan(model, dict(case.output.probes or {}), case).items():
+        if plan[0] != "points":
+            continue
+        (ia, _, pa), (ib, _, pb) = plan[1], plan[2]
+        for k, cut in enumerate(case.cuts):
+            x0 = np.asarray(cut.point, dtype=float)
+            n = np.asarray(cut.normal, dtype=float)
+            lo, hi = (np.asarray(b, dtype=float) for b in cut.within)
+            mid = 0.5 * (pa + pb)
+            if np.sign((pa - x0) @ n) == np.sign((pb - x0) @ n) or \
+                    np.any(mid < lo) or np.any(mid > hi):
+                continue
+            ca = np.sign((model.body_pos0[ia] - x0) @ n)
+            cb = np.sign((model.body_pos0[ib] - x0) @ n)
+            if ca == cb:
+                notes.append(f"output.probes.{name}: its points lie either side of cuts[{k}], "
+                             f"but in cells {ia} and {ib} whose centroids are both on one side "
+                             "(a cell straddles the cut's plane): it reads the deformation of "
+                             "one side, not the opening; move the points a cell or more from "
+                             "the plane, or use groups: [a, b] of cells either side")
+    return notes
+
+
 def surface_load_levers(case, model):
     """(cells (K,), lever ⊗ force (K, 9) [N m]) of the surface loads at
     amplitude 1, one row per loaded boundary face: the face's force F_f
