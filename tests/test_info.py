@@ -120,17 +120,24 @@ def test_memory_estimate_against_traced_allocations(tmp_path):
     assert np.isfinite(e.dt_estimate) and e.frames > 1
 
 
-#: a run of a few steps in a fresh process: its peak resident memory (the
-#: kernel's ru_maxrss) after a tiny run of the same kind has loaded Python,
-#: NumPy, SciPy, h5py and the compiled kernels, and the estimate
+#: a run of a few steps in a fresh process: its peak resident memory
+#: (VmHWM; ru_maxrss would start from the size of the forking test process)
+#: after a tiny run of the same kind has loaded Python, NumPy, SciPy, h5py
+#: and the compiled kernels, and the estimate
 MEASURE = r"""
-import json, resource, sys
+import json, sys
 from rbsm_dyn.__main__ import main
+def hwm():
+    # peak resident memory of this process image [bytes] (VmHWM: unlike
+    # ru_maxrss, it does not start from the forking parent's size)
+    for line in open("/proc/self/status"):
+        if line.startswith("VmHWM:"):
+            return int(line.split()[1]) * 1024
 tiny, big, out = sys.argv[1:4]
 assert main([tiny, "--out", out + ".tiny.h5", "--quiet", "--max-steps", "5"]) == 0
-base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+base = hwm()
 assert main([big, "--out", out, "--quiet", "--max-steps", "5"]) == 0
-peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+peak = hwm()
 from rbsm_dyn.case import load_case
 from rbsm_dyn.io.estimate import estimate
 from rbsm_dyn.model import build_model
@@ -158,7 +165,7 @@ def test_memory_estimate_against_the_measured_peak_of_a_run(tmp_path):
     GiB against 12.7 GB at 5·10⁵ bodies): it counted the model, state and
     buffers but not what the build holds besides them at its peak.  A
     19 264-cell Voronoi block (728 000 spring points) run for 5 steps in a
-    fresh process peaks (ru_maxrss, less that of a tiny run before it) at
+    fresh process peaks (VmHWM, less that of a tiny run before it) at
     0.7-1.5 × the estimate (measured: 484 MiB against 451 MiB; 246 MiB
     without the build's share)."""
     import json

@@ -609,24 +609,31 @@ def _stretched_history(src, dst, frames):
 #: run `plot` on a small history (imports, fonts), then on the big one, in a
 #: fresh process: the second's peak resident memory above the first's
 PLOT_PEAK = r"""
-import resource, sys
+import sys
 from rbsm_dyn.__main__ import main
+def hwm():
+    # peak resident memory of this process image [bytes] (VmHWM: unlike
+    # ru_maxrss, it does not start from the forking parent's size)
+    for line in open("/proc/self/status"):
+        if line.startswith("VmHWM:"):
+            return int(line.split()[1]) * 1024
 small, big, out = sys.argv[1:4]
 assert main(["plot", small, "--out", out + ".small.png", "--quiet"]) == 0
-base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+base = hwm()
 assert main(["plot", big, "--out", out]) == 0
-print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024 - base)
+print(hwm() - base)
 """
 
 
 def test_plot_reads_a_long_history_in_bounded_memory(tmp_path, capsys):
     """plot read the whole history (902 MB of memory for an 823 MB file).
     Now it reads only the observables it draws, in slices of 65 536
-    frames, and draws at most 2 × 20 000 points per series: a 387 MB
+    frames, and draws at most 2 × 2 000 points per series: a 387 MB
     history (350 000 frames, 302 MB of positions) is plotted with less
-    than 60 MB of peak memory more than a 22-frame one (measured: none
-    more; 417 MB more before), and the largest balance error it reports is
-    that of every frame (the repeated frames of the small run: the same
+    than 100 MB of peak memory (VmHWM) more than a 22-frame one (measured:
+    48 MB, 9 of them reading, the rest matplotlib drawing 4 000-point
+    lines; 593 MB more before), and the largest balance error it reports
+    is that of every frame (the repeated frames of the small run: the same
     figure)."""
     from post_case import run_beam
     small = run_beam(tmp_path)
@@ -642,7 +649,7 @@ def test_plot_reads_a_long_history_in_bounded_memory(tmp_path, capsys):
     assert r.returncode == 0, r.stderr
     lines = r.stdout.strip().splitlines()
     extra = int(lines[-1])
-    assert extra < 60e6, extra
+    assert extra < 100e6, extra
     assert f"error ≤ {expect}" in lines[-2], (lines, expect)
     assert (tmp_path / "long.png").stat().st_size > 10_000
 

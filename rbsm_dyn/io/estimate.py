@@ -19,7 +19,7 @@
   buffers, and what the build holds besides the model at its peak
   (BUILD_PEAK_EXTRA × the model's bytes: the tessellation's and the spring
   tables' temporaries, which the allocator keeps for the run).  Measured
-  (ru_maxrss of a run of 5 steps less that of a tiny run; git 3ce72e9 +
+  (VmHWM of a run of 5 steps less that of a tiny run; git 3ce72e9 +
   this change): Voronoi box 9 259 cells 219 MiB, 19 264 cells 484 MiB;
   blocks 16 000 cells 108 MiB, 54 000 cells 428 MiB, where model + state +
   buffers alone are 117, 246, 73 and 248 MiB (0.51-0.68 of the peak; issue

@@ -246,9 +246,10 @@ NOT_PROBES = {name for name, _ in ENERGIES} | {"n_broken", "crack_area", "residu
 
 #: frames read at a time by ``plot`` (each series it draws, one slice)
 PLOT_CHUNK = 1 << 16
-#: points drawn per series at most: longer series are cut into this many
-#: buckets of frames, each drawn by its minimum and maximum (the envelope)
-PLOT_POINTS = 20000
+#: buckets of frames drawn per series at most: a longer series is cut into
+#: this many, each drawn by its minimum and maximum (the envelope; the
+#: picture is 800 pixels wide, so every column still shows its extremes)
+PLOT_POINTS = 2000
 
 
 def _envelope(t, y, b):
