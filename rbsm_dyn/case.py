@@ -372,8 +372,9 @@ class Control(_Node):
     each increment raises the value of the relative-displacement probe
     ``probe`` by ``increment`` [m] until it reaches ``end`` [m]; the load
     factor follows.  ``stop_fraction`` (optional, in [0, 1)): stop once the
-    load factor has fallen below this fraction of its peak (the softening
-    branch followed far enough)."""
+    load has fallen below this fraction of its peak (the softening branch
+    followed far enough; the load: the reaction along the prescribed
+    displacements, or λ times the loads when there are none)."""
     probe: str
     increment: float = Field(gt=0)
     end: float

@@ -63,6 +63,22 @@ def test_softening_bar_snaps_back_under_crack_opening_control(run_case):
     assert u == pytest.approx(0.25 * P / (E * A) + w, rel=1e-6, abs=1e-12)
 
 
+def test_stop_fraction_ends_the_run_on_the_softening_branch(run_case):
+    """`stop_fraction: 0.45` on the snapping bar (loaded by a prescribed
+    displacement, so λ is that displacement, not the load): the run ends at
+    the first increment whose load (the reaction along the prescribed
+    displacement) is below 0.45 of the peak A f_t = 30 kN: by the analytic
+    law above P = 0.45 A f_t at w = 15.5 µm, so with 1 µm increments the
+    last frame is w = 16 µm (P = 12 kN; 15 kN at 15 µm).  (It stopped on λ
+    before, which falls to 0.61 of its peak only, and ran on to `end`.)"""
+    h = run_case(BAR.replace("end: 1.9e-5}", "end: 1.9e-5, stop_fraction: 0.45}"))
+    w = h.observables["w"]
+    P = np.abs(h.observables["P"])
+    assert w[-1] == pytest.approx(1.6e-5, rel=1e-6)
+    assert P[-1] < 0.45 * P.max() <= P[-2]
+    assert P.max() == pytest.approx(0.01 * FT, rel=1e-2)
+
+
 CANTILEVER = """
 name: cantilever
 domain: {box: [[0, 0, 0], [1.0, 0.1, 0.05]]}

@@ -487,13 +487,18 @@ def test_ctrl_c_during_build_exits_130_without_traceback(tmp_path, capsys, monke
 def test_sigint_at_start_up_exits_130_without_traceback(tmp_path, delay):
     """SIGINT a fraction of a second into `python -m rbsm_dyn` (imports of
     NumPy/Numba take ~0.7 s, then the build of 4000 Voronoi cells a few s):
-    exit 130, no traceback, no history."""
+    exit 130, no traceback, no history.  The child gets SIGINT's default
+    disposition, as from a terminal: a test suite started in the background
+    by a shell without job control (a CI runner) inherits SIGINT ignored,
+    and rbsm_dyn leaves an ignored SIGINT ignored (the run then completes:
+    exit 0, the failure CI saw twice)."""
     text = SMALL.replace("kind: blocks, divisions: [8, 2, 2]", "kind: voronoi, size: 0.01")
     case = _write(tmp_path, text)
     out = tmp_path / "x.h5"
     proc = subprocess.Popen([sys.executable, "-m", "rbsm_dyn", str(case), "--out", str(out),
                              "--quiet"], env=_env(), stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
+                            stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     time.sleep(delay)
     proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=120)

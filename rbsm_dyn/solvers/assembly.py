@@ -87,51 +87,112 @@ def _world(F, T, C):
             C[i, j] = acc
 
 
+@nb.njit(cache=True, inline="always")
+def _spring_blocks(arm_a, arm_b, Ra, Rb, C, G, CG, out):
+    """out (4, 6, 6) = G_aᵀ C G_a, G_aᵀ C G_b, G_bᵀ C G_a, G_bᵀ C G_b of one
+    spring (Kawai 1978, eq. 8b): G_a = [−I, [r_a]×], G_b = [I, −[r_b]×] with
+    the world arms r = R arm; C its world 3 × 3 stiffness.  G (2, 3, 6) and
+    CG (2, 3, 6) are scratch."""
+    for e in range(2):
+        arm = arm_a if e == 0 else arm_b
+        R = Ra if e == 0 else Rb
+        r0 = R[0, 0] * arm[0] + R[0, 1] * arm[1] + R[0, 2] * arm[2]
+        r1 = R[1, 0] * arm[0] + R[1, 1] * arm[1] + R[1, 2] * arm[2]
+        r2 = R[2, 0] * arm[0] + R[2, 1] * arm[1] + R[2, 2] * arm[2]
+        sg = -1.0 if e == 0 else 1.0
+        for i in range(3):
+            for j in range(6):
+                G[e, i, j] = 0.0
+            G[e, i, i] = sg
+        # u + θ × r = u − [r]× θ: the rotation columns are −sg [r]×
+        G[e, 0, 4] = -sg * -r2
+        G[e, 0, 5] = -sg * r1
+        G[e, 1, 3] = -sg * r2
+        G[e, 1, 5] = -sg * -r0
+        G[e, 2, 3] = -sg * -r1
+        G[e, 2, 4] = -sg * r0
+        for i in range(3):
+            for j in range(6):
+                CG[e, i, j] = C[i, 0] * G[e, 0, j] + C[i, 1] * G[e, 1, j] \
+                    + C[i, 2] * G[e, 2, j]
+    for q in range(4):
+        ea = 0 if q < 2 else 1
+        eb = 0 if (q == 0 or q == 2) else 1
+        for i in range(6):
+            for j in range(6):
+                out[q, i, j] = (G[ea, 0, i] * CG[eb, 0, j] + G[ea, 1, i] * CG[eb, 1, j]
+                                + G[ea, 2, i] * CG[eb, 2, j])
+
+
 @nb.njit(cache=True)
 def _assemble(spring_bodies, arm_a, arm_b, rot, frames, k, slots, data):
     n = rot.shape[0] - 1
     G = np.zeros((2, 3, 6))
     C = np.zeros((3, 3))
     CG = np.zeros((2, 3, 6))
+    blocks = np.zeros((4, 6, 6))
     for s in range(spring_bodies.shape[0]):
         a = spring_bodies[s, 0]
         b = spring_bodies[s, 1]
-        Fm = frames[s]
-        _world(Fm, k[s], C)
-        for e in range(2):
-            body = a if e == 0 else b
-            arm = arm_a[s] if e == 0 else arm_b[s]
-            R = rot[body]
-            r0 = R[0, 0] * arm[0] + R[0, 1] * arm[1] + R[0, 2] * arm[2]
-            r1 = R[1, 0] * arm[0] + R[1, 1] * arm[1] + R[1, 2] * arm[2]
-            r2 = R[2, 0] * arm[0] + R[2, 1] * arm[1] + R[2, 2] * arm[2]
-            sg = -1.0 if e == 0 else 1.0
-            for i in range(3):
-                for j in range(6):
-                    G[e, i, j] = 0.0
-                G[e, i, i] = sg
-            # u + θ × r = u − [r]× θ: the rotation columns are −sg [r]×
-            G[e, 0, 4] = -sg * -r2
-            G[e, 0, 5] = -sg * r1
-            G[e, 1, 3] = -sg * r2
-            G[e, 1, 5] = -sg * -r0
-            G[e, 2, 3] = -sg * -r1
-            G[e, 2, 4] = -sg * r0
-            for i in range(3):
-                for j in range(6):
-                    CG[e, i, j] = C[i, 0] * G[e, 0, j] + C[i, 1] * G[e, 1, j] \
-                        + C[i, 2] * G[e, 2, j]
+        _world(frames[s], k[s], C)
+        _spring_blocks(arm_a[s], arm_b[s], rot[a], rot[b], C, G, CG, blocks)
         ground = b >= n
         for q in range(4):
-            ea = 0 if q < 2 else 1
-            eb = 0 if (q == 0 or q == 2) else 1
             if q > 0 and ground:
                 continue
             blk = slots[s, q]
             for i in range(6):
                 for j in range(6):
-                    data[blk, i, j] += (G[ea, 0, i] * CG[eb, 0, j] + G[ea, 1, i] * CG[eb, 1, j]
-                                        + G[ea, 2, i] * CG[eb, 2, j])
+                    data[blk, i, j] += blocks[q, i, j]
+
+
+@nb.njit(cache=True)
+def assemble_triplets(springs, spring_bodies, arm_a, arm_b, rot, frames, k, rows, cols, vals):
+    """COO triplets (global DOF row, column, value) of Σ B_sᵀ C_s B_s over
+    the listed springs, 144 per spring (rows, cols, vals of length
+    144 len(springs); the ground's blocks get row −1); k (len(springs), 3, 3)
+    the springs' local stiffnesses, frames (S, 3, 3) world matrices."""
+    n = rot.shape[0] - 1
+    G = np.zeros((2, 3, 6))
+    C = np.zeros((3, 3))
+    CG = np.zeros((2, 3, 6))
+    blocks = np.zeros((4, 6, 6))
+    p = 0
+    for t in range(springs.shape[0]):
+        s = springs[t]
+        a = spring_bodies[s, 0]
+        b = spring_bodies[s, 1]
+        _world(frames[s], k[t], C)
+        _spring_blocks(arm_a[s], arm_b[s], rot[a], rot[b], C, G, CG, blocks)
+        for q in range(4):
+            ra = a if q < 2 else b
+            cb = a if (q == 0 or q == 2) else b
+            off = ra >= n or cb >= n
+            for i in range(6):
+                for j in range(6):
+                    rows[p] = -1 if off else 6 * ra + i
+                    cols[p] = -1 if off else 6 * cb + j
+                    vals[p] = blocks[q, i, j]
+                    p += 1
+
+
+@nb.njit(cache=True)
+def changed_springs(k, k0, out):
+    """Indices of the springs whose local stiffness k (S, 3, 3) differs from
+    k0 into out; returns their count."""
+    c = 0
+    for s in range(k.shape[0]):
+        for i in range(3):
+            done = False
+            for j in range(3):
+                if k[s, i, j] != k0[s, i, j]:
+                    out[c] = s
+                    c += 1
+                    done = True
+                    break
+            if done:
+                break
+    return c
 
 
 @nb.njit(cache=True)

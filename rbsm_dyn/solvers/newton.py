@@ -18,8 +18,17 @@ or touching contact at full stiffness (its tangential springs too when it
 has friction), an open crack at 10⁻⁶ of it (Rots & Invernizzi
 2004's secant "sequentially linear" stiffness is always positive, so the
 solve never meets a negative pivot on a softening branch; the rate of
-convergence is linear there, quadratic on elastic parts).  Sparse solve:
-SuperLU (scipy) of the free block.
+convergence is linear there, quadratic on elastic parts).  Linear
+solves (_LowRank): while no body has turned by more than GEOMETRIC_ANGLE,
+one SuperLU factorisation (scipy; nested-dissection order by METIS) of
+the first iteration's matrix K0 serves the whole run, the springs whose
+stiffness has changed since (the fracture process zone) entering by
+Woodbury's identity on the DOFs of their bodies: on the 2 866-cell
+notched beam of benchmarks/quasi_static.py one factorisation instead of
+one or more per iteration (7-17 s per increment before, 1-2 s now).
+Past GEOMETRIC_ANGLE (_Full): the whole matrix with the geometric
+stiffness, conjugate gradients or GMRES preconditioned by the factors of
+an earlier one.
 
 Control:
 * load / displacement control: λ runs 1/n, 2/n, ... 1 (``load_steps``),
@@ -47,6 +56,7 @@ import math
 import numba as nb
 import numpy as np
 import scipy.sparse as sp
+import scipy.linalg as sla
 import scipy.sparse.linalg as spla
 
 from ..model import new_state
@@ -57,10 +67,11 @@ from ..physics.laws import (BROKEN, P_COH, P_CRIT, P_FT, P_GF, P_GS, P_MU, P_RS,
 from ..physics.laws.plastic import MOHR_COULOMB, plastic_return
 from ..physics.laws.rupture import MIXED, SOFTENING, mixed_mode_damage, softening_damage
 from ..physics.poisson import poisson_args, poisson_pass
-from ..physics.rotation import quat_mul_np
+from ..physics.rotation import quat_matrix_np, quat_mul_np
 from ..physics.springs import elastic_spring_pass, spring_local_gap
 from ..stiffness import model_load
 from .explicit import RunFailed
+from .assembly import assemble_triplets, changed_springs
 from .relax import apply_increment, record_frame
 
 NEWTON_MAX_IT = 40      # iterations per increment before it is cut
@@ -68,11 +79,14 @@ MAX_CUTS = 12           # halvings of one increment
 EASY_IT = 5             # an increment converged in this many lets the next grow
 OPEN_FRACTION = 1e-6    # secant stiffness of an open crack / the intact spring's
 LINE_SEARCH = (0.5, 4.0)   # bounds of the line-search step
-GEOMETRIC_ANGLE = 1e-3    # rotation [rad] beyond which the geometric stiffness is added
+GEOMETRIC_ANGLE = 1e-2    # rotation [rad] beyond which the geometric stiffness is added
 DIVERGED_RATIO = 1e2    # residual ratio taken for a diverged iteration (the increment is cut)
 GMRES_MAX = 60          # GMRES iterations (no restart) before refactorising
 CG_MAX = 30             # CG iterations before the preconditioner is refactorised
 CG_RTOL = 1e-10         # relative residual of each linear solve
+LOWRANK_MAX = 3000      # DOFs of the changed springs' bodies before K0 is refactorised
+MATRIX_GMRES = 20       # GMRES iterations on the capacitance matrix before it is refactorised
+CAPACITANCE_RTOL = 1e-6  # relative residual accepted from them
 
 
 class Newton:
@@ -203,37 +217,44 @@ class Newton:
         return x if np.all(np.isfinite(x)) else None
 
     # -- stiffness ---------------------------------------------------------
-    def stiffness(self, state, tri):
-        """Iteration matrix (6N × 6N) in the present configuration: the
-        springs' local stiffnesses (_local_tangents), their geometric
-        stiffness once rotations are finite."""
+    def local(self, state, tri):
+        """(k, frames, turned) of the present iteration: every spring's local
+        stiffness (S, 3, 3) at its trial state (_local_tangents), the spring
+        frames (S, 4) turned with body a (the mid frame to first order), and
+        whether some body has turned by more than GEOMETRIC_ANGLE."""
         m = self.m
-        k = m.spring_k
         sstate, dmg = tri
         self.tangent = False
+        k = np.zeros((m.n_springs, 3, 3))
         if sstate is not None:
             gap = np.empty((m.n_springs, 3))
             spring_local_gap(m.spring_bodies, m.spring_arm_a, m.spring_arm_b, m.spring_frame0,
                              state.body_pos, state.body_rot, state.body_dq, gap)
-            k = np.zeros((m.n_springs, 3, 3))
             self.tangent = bool(_local_tangents(
                 m.spring_k, m.spring_area, m.spring_h, m.spring_law, m.law_params, sstate, dmg,
                 state.spring_dmg, state.spring_kappa, state.spring_dp, gap, OPEN_FRACTION,
                 self.use_tangent, k))
-        # frames and arms turned with their bodies (body a's rotation for the
-        # frame: the mid frame to first order)
+        else:
+            k[:, [0, 1, 2], [0, 1, 2]] = m.spring_k
         n = self.n
         dq = quat_mul_np(state.body_quat[:n], _conj(m.body_quat0[:n]))
         dq = np.vstack([dq, [[1.0, 0, 0, 0]]])
         frames = quat_mul_np(dq[m.spring_bodies[:, 0]], m.spring_frame0)
+        angle = 2.0 * np.arccos(np.clip(np.abs(dq[:n, 0]), 0.0, 1.0))
+        return k, frames, bool(angle.size and angle.max() > GEOMETRIC_ANGLE)
+
+    def stiffness(self, state, tri, local=None):
+        """Iteration matrix (6N × 6N) in the present configuration: the
+        springs' local stiffnesses (_local_tangents), their geometric
+        stiffness once rotations are finite."""
+        m = self.m
+        k, frames, turned = self.local(state, tri) if local is None else local
         # the geometric stiffness of the spring forces (solvers/assembly.py
         # _geometric) once some body has turned by more than GEOMETRIC_ANGLE:
         # the exact Jacobian of an elastic residual (checked against finite
         # differences, tests/test_newton.py), not symmetric
-        angle = 2.0 * np.arccos(np.clip(np.abs(dq[:n, 0]), 0.0, 1.0))
-        self.symmetric = not (angle.size and angle.max() > GEOMETRIC_ANGLE) \
-            and not self.tangent
-        if not (angle.size and angle.max() > GEOMETRIC_ANGLE):
+        self.symmetric = not turned and not self.tangent
+        if not turned:
             K = self.pattern.matrix(m, state.body_quat, frames, k)
         else:
             sb = m.spring_bodies
@@ -243,6 +264,195 @@ class Newton:
             K = self.pattern.matrix(m, state.body_quat, frames, k, force=state.spring_force,
                                     gap=pb - pa)
         return K if self.K_aux is None else (K + self.K_aux).tocsr()
+
+    # -- the iteration's linear solver ---------------------------------------
+    low_rank = None          # _LowRank, kept while rotations stay small
+
+    def linear(self, state, tri):
+        """The linear solver of this iteration: _LowRank (one factorisation
+        updated by the springs that changed) while no body has turned by
+        more than GEOMETRIC_ANGLE, else _Full (the whole matrix with the
+        geometric stiffness assembled)."""
+        local = self.local(state, tri)
+        k, frames, turned = local
+        if not turned:
+            if self.low_rank is None or not self.low_rank.update(k):
+                try:
+                    self.low_rank = _LowRank(self, state, k, frames)
+                except RuntimeError:          # singular: _Full says so
+                    self.low_rank = None
+                    return _Full(self, self.stiffness(state, tri, local))
+                self.factorizations += 1
+                self.low_rank.update(k)
+            return self.low_rank
+        return _Full(self, self.stiffness(state, tri, local))
+
+
+class _Full:
+    """Solves with the whole iteration matrix (Newton.solve: conjugate
+    gradients or GMRES preconditioned by an earlier factorisation)."""
+
+    def __init__(self, nt, K):
+        self.nt = nt
+        f = nt.free
+        self.Kff = sp.csr_matrix(K[f][:, f])
+        self.Kfp = K[f][:, nt.disp]
+
+    def solve(self, B):
+        X = np.empty_like(B)
+        for j in range(B.shape[1]):
+            x = self.nt.solve(self.Kff, B[:, j])
+            if x is None:
+                return None
+            X[:, j] = x
+        return X
+
+    def prescribed(self):
+        """K_fp U_p: the free DOFs' forces of the prescribed displacements
+        at full amplitude."""
+        return self.Kfp @ self.nt.Up[self.nt.disp]
+
+
+class _LowRank:
+    """Solves with the iteration matrix K = K0 + ΔK of a small-rotation
+    iteration from one factorisation.  K0 is the matrix factorised at some
+    state (the first iteration, or the last renewal), ΔK = Σ B_sᵀ (k_s −
+    k0_s) B_s over the springs whose local stiffness has changed since (the
+    fracture process zone), in K0's geometry, nonzero on the DOFs of the set
+    D of their bodies only.  Woodbury's identity (Hager 1989, "Updating the
+    inverse of a matrix", SIAM Review 31; Golub & Van Loan, Matrix
+    Computations, §2.1.4) with P the columns of D's free DOFs and A = Pᵀ ΔK P:
+    (K0 + P A Pᵀ)⁻¹ = K0⁻¹ − K0⁻¹ P (I + A Z)⁻¹ A Pᵀ K0⁻¹, Z = Pᵀ K0⁻¹ P,
+    Z grown by a multi-right-hand-side solve when bodies join D (a damage
+    zone grows monotonically), (I + A Z) a dense LU each iteration.  The
+    geometry of K0 is that of its state: the frames and arms turn by at most
+    GEOMETRIC_ANGLE meanwhile, a change of the Jacobian of that order (a
+    modified Newton iteration; the residual is exact).  Renewed (K0 the
+    present matrix) when D passes LOWRANK_MAX DOFs."""
+
+    def __init__(self, nt, state, k, frames):
+        m = nt.m
+        self.nt = nt
+        self.rot = quat_matrix_np(state.body_quat)
+        self.frames = quat_matrix_np(frames)
+        self.k0 = k.copy()
+        K = nt.pattern.matrix(m, state.body_quat, frames, k)
+        if nt.K_aux is not None:
+            K = (K + nt.K_aux).tocsr()
+        f = nt.free
+        self.symmetric = bool(np.array_equal(k, k.transpose(0, 2, 1)))
+        self.lu = _factorize(sp.csr_matrix(K[f][:, f]), nt.order, self.symmetric)
+        self.kfp_up = K[f][:, nt.disp] @ nt.Up[nt.disp]
+        self.free_pos = np.full(6 * nt.n, -1)
+        self.n_free = int(f.sum())
+        self.free_pos[f] = np.arange(self.n_free)
+        self.slot = np.full(nt.n + 1, -1)
+        self.bodies = np.zeros(0, dtype=np.int64)
+        self.pos = np.zeros(0, dtype=np.int64)      # free positions of D's free DOFs
+        self.Z = np.zeros((0, 0))
+        self.loc = np.full(6 * nt.n, -1)           # a DOF's row in Z (D's free DOFs)
+        self.A = None
+        self.M = None
+        self._changed = np.empty(m.n_springs, dtype=np.int64)
+
+    def update(self, k):
+        """ΔK of the local stiffnesses k; False when D would pass
+        LOWRANK_MAX DOFs (the caller renews)."""
+        m = self.nt.m
+        n = self.nt.n
+        changed = self._changed[:changed_springs(k, self.k0, self._changed)]
+        self.A = None
+        if changed.size == 0:
+            return True
+        bodies = np.unique(m.spring_bodies[changed].reshape(-1))
+        bodies = bodies[bodies < n]
+        new = bodies[self.slot[bodies] < 0]
+        if 6 * (len(self.bodies) + len(new)) > LOWRANK_MAX:
+            return False
+        if new.size:
+            self._grow(new)
+        nv = 144 * len(changed)
+        rows = np.empty(nv, dtype=np.int64)
+        cols = np.empty(nv, dtype=np.int64)
+        vals = np.empty(nv)
+        assemble_triplets(changed, m.spring_bodies, m.spring_arm_a, m.spring_arm_b, self.rot,
+                          self.frames, k[changed] - self.k0[changed], rows, cols, vals)
+        ok = rows >= 0
+        rows, cols, vals = rows[ok], cols[ok], vals[ok]
+        lr, lc = self.loc[rows], self.loc[cols]
+        d = len(self.pos)
+        inner = (lr >= 0) & (lc >= 0)
+        # A is block-sparse (a body's few neighbours)
+        self.A = sp.csr_matrix((vals[inner], (lr[inner], lc[inner])), shape=(d, d))
+        pres = (lr >= 0) & self.nt.disp[cols]
+        self.A_up = np.bincount(lr[pres], vals[pres] * self.nt.Up[cols[pres]], minlength=d)
+        return True
+
+    def _capacitance(self, R):
+        """V = (I + A Z)⁻¹ R: GMRES preconditioned by the LU factors of an
+        earlier I + A Z (the damage zone changes a little from one iteration
+        to the next), refactorised when MATRIX_GMRES iterations are not
+        enough."""
+        d = len(self.pos)
+        op = spla.LinearOperator((d, d), matvec=lambda v: v + self.A @ (self.Z @ v),
+                                 dtype=float)
+        if self.M is not None and self.M[0].shape[0] == d:
+            pre = spla.LinearOperator((d, d), dtype=float,
+                                      matvec=lambda v: sla.lu_solve(self.M, v,
+                                                                    check_finite=False))
+            V = np.empty_like(R)
+            for j in range(R.shape[1]):
+                r = R[:, j]
+                x, _ = spla.gmres(op, r, x0=pre.matvec(r), M=pre,
+                                  rtol=0.1 * CAPACITANCE_RTOL, restart=MATRIX_GMRES, maxiter=1)
+                # an inexact Newton step (Dembo, Eisenstat & Steihaug 1982):
+                # a linear residual far below the Newton residual is enough
+                # (GMRES's own test, on the preconditioned residual, can fail
+                # on an ill-conditioned I + A Z when the true one is small)
+                if not np.linalg.norm(op.matvec(x) - r) <= CAPACITANCE_RTOL * np.linalg.norm(r):
+                    break
+                V[:, j] = x
+            else:
+                return V
+        M = self.A @ self.Z
+        M[np.diag_indices_from(M)] += 1.0
+        self.M = sla.lu_factor(M, overwrite_a=True, check_finite=False)
+        return sla.lu_solve(self.M, R, check_finite=False)
+
+    def _grow(self, new):
+        """Add bodies to D: Z's new rows and columns, K0⁻¹ at D's DOFs."""
+        self.slot[new] = len(self.bodies) + np.arange(len(new))
+        self.bodies = np.concatenate([self.bodies, new])
+        dofs = (new[:, None] * 6 + np.arange(6)).reshape(-1)
+        p_new = self.free_pos[dofs]
+        p_new = p_new[p_new >= 0]
+        E = np.zeros((self.n_free, len(p_new)))
+        E[p_new, np.arange(len(p_new))] = 1.0
+        X = self.lu.solve(E)
+        Xt = X if self.symmetric else self.lu.solve(E, trans="T")
+        p_old = self.pos
+        self.Z = np.block([[self.Z, X[p_old]], [Xt[p_old].T, X[p_new]]])
+        self.pos = np.concatenate([p_old, p_new])
+        fd = dofs[self.free_pos[dofs] >= 0]
+        self.loc[fd] = len(p_old) + np.arange(len(fd))
+
+    def solve(self, B):
+        """K⁻¹ B (B: free DOFs × columns)."""
+        Y = self.lu.solve(B)
+        if self.A is None:
+            return Y
+        v = self._capacitance(self.A @ Y[self.pos])
+        E = np.zeros_like(Y)
+        E[self.pos] = v
+        return Y - self.lu.solve(E)
+
+    def prescribed(self):
+        """K_fp U_p (as _Full.prescribed)."""
+        if self.A is None:
+            return self.kfp_up
+        out = self.kfp_up.copy()
+        out[self.pos] += self.A_up
+        return out
 
 
 @nb.njit(cache=True)
@@ -254,7 +464,8 @@ def _local_tangents(spring_k, spring_area, spring_h, spring_law, law_params, sta
     increment (D > the committed D0) gets the consistent tangent
     ∂f/∂e = (1 − D) K − K e ⊗ ∂D/∂e (∂D/∂e by central differences of the
     damage function; not symmetric); broken: contact at full stiffness when
-    the face touches (δn ≤ 0; tangential too with friction), else
+    the faces overlap (δn < 0: a face at zero gap, the notch of a cut at the
+    start, opens under tension; tangential too with friction), else
     `open_fraction` of it.  `tangent` False: the secant (1 − D) K for all.
     Returns True when some spring got a tangent."""
     any_soft = False
@@ -264,7 +475,7 @@ def _local_tangents(spring_k, spring_area, spring_h, spring_law, law_params, sta
         P = law_params[spring_law[s]]
         if state[s] >= BROKEN:
             f = open_fraction
-            if gap[s, 0] <= 1e-9 * spring_h[s]:
+            if gap[s, 0] < -1e-12 * spring_h[s]:
                 out[s, 0, 0] = kn
                 out[s, 1, 1] = ks if P[P_MU] > 0.0 else f * ks
                 out[s, 2, 2] = kt if P[P_MU] > 0.0 else f * kt
@@ -328,9 +539,9 @@ class _Permuted:
     def __init__(self, lu, p):
         self.lu, self.p = lu, p
 
-    def solve(self, b):
+    def solve(self, b, trans="N"):
         x = np.empty_like(b)
-        x[self.p] = self.lu.solve(b[self.p])
+        x[self.p] = self.lu.solve(b[self.p], trans=trans)
         return x
 
 
@@ -513,13 +724,14 @@ def run(case, model, recorder, *, max_steps=None, progress=None):
         d = min(d_max, step * 1.5) if its <= EASY_IT else step
         _set_reactions(it_, state, lam)
         record_frame(recorder, m, state, total, lam, ratio)
-        peak = max(peak, abs(lam))
+        load = abs(_load(it_, state, lam))
+        peak = max(peak, load)
         if progress:
             frac = 1.0 - abs(target_end - pos) / max(abs(target_end - (0.0 if control is None
                                                                           else tau0)), 1e-300)
             progress.update(100 * frac, lam, ratio, label="residual")
         if control is not None and control.stop_fraction and peak > 0 \
-                and abs(lam) < control.stop_fraction * peak:
+                and load < control.stop_fraction * peak:
             break
         if max_steps is not None and total >= max_steps:
             return dict(iterations=iterations, wall_time=_time.perf_counter() - t_wall,
@@ -541,12 +753,24 @@ def _increment(nt, state, lam, goal, plan, tol, controlled):
     # once the residual grows (a softening lattice can send the tangent
     # iteration astray: Rots & Invernizzi 2004)
     nt.use_tangent = True
+    back = None
     for k in range(1, NEWTON_MAX_IT + 1):
         nt.set_prescribed(state, lam)
         r, tri = nt.residual(state, lam)
         prev = ratio
         ref = nt.reference(r, lam, state.body_support[:nt.n])
         ratio = nt.norm(r) / max(ref, 1e-300)
+        if back is not None and not ratio < prev:
+            # a step of the consistent tangent raised the residual (it can
+            # send a softening lattice far astray, a cell turned by 0.02 rad
+            # on the notched beam): undone, the secant from here on
+            motion, lam, ratio = back
+            _restore(state, motion)
+            nt.use_tangent = False
+            nt.set_prescribed(state, lam)
+            r, tri = nt.residual(state, lam)
+            ref = nt.reference(r, lam, state.body_support[:nt.n])
+        back = None
         if k > 1 and (ref == 0.0 or ratio > DIVERGED_RATIO):
             # no force left anywhere (every spring broken by a wild step: a
             # residual of zero that is not equilibrium) or an imbalance far
@@ -563,22 +787,22 @@ def _increment(nt, state, lam, goal, plan, tol, controlled):
             return True, lam, k - 1, ratio
         if not np.isfinite(ratio):
             return False, lam, k, ratio
-        K = nt.stiffness(state, tri)
+        lin = nt.linear(state, tri)
+        lam0 = lam
         free = nt.free
-        Kff = sp.csr_matrix(K[free][:, free])
         dU = np.zeros(6 * nt.n)
-        x = nt.solve(Kff, r[free])
-        if x is None:
-            return False, lam, k, ratio
-        dU[free] = x
         if controlled:
             # K δU_F = F − K_fp U_p: the response to a unit rise of λ
+            B = np.column_stack([r[free], nt.F[free] - lin.prescribed()])
+        else:
+            B = r[free][:, None]
+        X = lin.solve(B)
+        if X is None or not np.all(np.isfinite(X)):
+            return False, lam, k, ratio
+        dU[free] = X[:, 0]
+        if controlled:
             dF = np.zeros(6 * nt.n)
-            rhs = nt.F[free] - K[free][:, nt.disp] @ nt.Up[nt.disp]
-            x = nt.solve(Kff, rhs)
-            if x is None:
-                return False, lam, k, ratio
-            dF[free] = x
+            dF[free] = X[:, 1]
             dF[nt.disp] = nt.Up[nt.disp]
             den = float(c @ dF)
             if abs(den) < 1e-300:
@@ -616,8 +840,22 @@ def _increment(nt, state, lam, goal, plan, tol, controlled):
             lam += dlam
         if not np.all(np.isfinite(dU)):
             return False, lam, k, ratio
+        if nt.tangent:
+            back = (_save_motion(state), lam0, ratio)
         apply_increment(m, state, dU.reshape(nt.n, 6))
     return False, lam, NEWTON_MAX_IT, ratio
+
+
+def _load(nt, state, lam):
+    """The load the path parameter λ scales, for `stop_fraction`: with
+    prescribed displacements, the constraint force along them (the
+    reaction's work-conjugate of λ, R·U_p/|U_p| [N]); with loads only, λ |F|."""
+    up = nt.Up[nt.disp]
+    norm = float(np.linalg.norm(up))
+    if norm > 0.0:
+        r = state.body_wrench[:nt.n].reshape(-1)[nt.disp] + lam * nt.F[nt.disp]
+        return -float(r @ up) / norm
+    return lam * float(np.linalg.norm(nt.F))
 
 
 def _set_reactions(nt, state, lam):
