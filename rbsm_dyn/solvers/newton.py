@@ -826,6 +826,11 @@ def _increment(nt, state, lam, goal, plan, tol, controlled):
                 saved = _save_motion(state)
                 res = []
                 for alpha in (0.0, 1.0):
+                    if alpha == 0.0 and abs(gap) <= 1e-9 * abs(goal):
+                        # the constraint holds (to 1e-9): α = 0 is the present
+                        # state, its residual known
+                        res.append(r[free] * nt.w[free])
+                        continue
                     d, dl = step(alpha)
                     apply_increment(m, state, d.reshape(nt.n, 6))
                     nt.set_prescribed(state, lam + dl)
