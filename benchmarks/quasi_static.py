@@ -87,7 +87,7 @@ def case_text(size, method, ramp=None, steps=60):
                          "increment: 1.0e-5, end: 1.0e-3, stop_fraction: 0.3}}")
     elif method == "relaxation":
         fmt["load"] = f"  - {{group: top, displacement: [null, {-DEFLECTION}, null]}}"
-        fmt["solver"] = f"{{mode: static, load_steps: {steps}, tolerance: 1.0e-4}}"
+        fmt["solver"] = f"{{mode: static, method: relaxation, load_steps: {steps}, tolerance: 1.0e-4}}"
     else:
         v = DEFLECTION / (0.95 * ramp)          # ramped over the first 10 %: mean 0.95 v
         fmt["load"] = (f"  - {{group: top, velocity: [null, {-v}, null], "

@@ -393,7 +393,7 @@ DT_SAFETY_MAX = 0.85
 
 class Solver(_Node):
     mode: Literal["dynamic", "static", "linear", "modal"]
-    method: Literal["relaxation", "newton"] = "relaxation"
+    method: Literal["relaxation", "newton"] = "relaxation"   # static: default_static_method
     control: Optional[Control] = None
     end_time: Optional[float] = Field(default=None, gt=0)
     dt: Optional[float] = Field(default=None, gt=0)
@@ -407,6 +407,27 @@ class Solver(_Node):
     predictor: bool = True
     threads: Optional[int] = Field(default=None, ge=1)
     modes: int = Field(default=6, ge=1)
+
+
+RELAXATION_KEYS = ("max_iterations", "relaxation", "damping_factor", "predictor")
+
+
+def default_static_method(case) -> str:
+    """solver.method of a static case that does not give one: `newton`
+    with indirect displacement control (solver.control) and for softening
+    fracture (a material's rupture by fracture energy: dynamic relaxation
+    does not converge in any reasonable time there, issue 13), unless the
+    case gives keys of the relaxation (RELAXATION_KEYS) or has interfaces
+    between parts (frictional contact, where Newton stalls); `relaxation`
+    otherwise."""
+    s = case.solver
+    if s.control is not None:
+        return "newton"
+    if any(s.given(k) for k in RELAXATION_KEYS) or case.interfaces:
+        return "relaxation"
+    soft = any(m.rupture is not None and m.rupture.fracture_energy is not None
+               for m in case.materials.values())
+    return "newton" if soft else "relaxation"
 
 
 DYNAMIC_KEYS = ("end_time", "dt", "dt_safety", "damping")
@@ -1386,6 +1407,8 @@ def _check(case: Case) -> None:
             check_only(s, STATIC_KEYS, ("solver",), f"in mode {s.mode}")
     if s.mode != "modal":
         check_only(s, MODAL_KEYS, ("solver",), f"in mode {s.mode}")
+    if s.mode == "static" and not s.given("method"):
+        s.method = default_static_method(case)
     if s.control is not None:
         cp = ("solver", "control")
         if s.method != "newton":
