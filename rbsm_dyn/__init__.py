@@ -1,4 +1,12 @@
 """rbsm_dyn: Kawai rigid-body-spring model, explicit dynamics."""
+import os as _os
+
+# Numba's OpenMP threads wait at the end of a parallel region by sleeping,
+# not spinning (issue 15): beside one busy process on 2 cores, a 600-body
+# bench ran at 0.49x of one thread on two spinning threads and 0.87x with
+# PASSIVE (benchmarks/README.md).  Read when the OpenMP runtime loads (the
+# first parallel kernel), so set on import; a value the user set is kept.
+_os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 __version__ = "0.1.0"
 __all__ = ["open_history", "load_case", "__version__"]
 
