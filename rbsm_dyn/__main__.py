@@ -244,6 +244,9 @@ def _build_and_go(command, path, case, args, lock):
         print(f"rbsm_dyn: warning: {note}", file=sys.stderr)
     if command == "check":
         print(f"{path}: ok ({model.n_bodies} bodies, {model.n_springs} spring points)")
+        if case.solver.mode == "static":
+            how = "the default for this case" if case.solver._method_default else "given"
+            print(f"  solver: static by {case.solver.method} ({how}; docs/case_file.md)")
         for line in _selections(case, model):
             print(f"  {line}")
         return 0

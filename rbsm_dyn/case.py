@@ -394,6 +394,7 @@ DT_SAFETY_MAX = 0.85
 class Solver(_Node):
     mode: Literal["dynamic", "static", "linear", "modal"]
     method: Literal["relaxation", "newton"] = "relaxation"   # static: default_static_method
+    _method_default: bool = PrivateAttr(default=False)      # set by default_static_method
     control: Optional[Control] = None
     end_time: Optional[float] = Field(default=None, gt=0)
     dt: Optional[float] = Field(default=None, gt=0)
@@ -1409,6 +1410,7 @@ def _check(case: Case) -> None:
         check_only(s, MODAL_KEYS, ("solver",), f"in mode {s.mode}")
     if s.mode == "static" and not s.given("method"):
         s.method = default_static_method(case)
+        s._method_default = True
     if s.control is not None:
         cp = ("solver", "control")
         if s.method != "newton":

@@ -435,4 +435,6 @@ def test_static_method_default(extra, solver, method):
     text = text.replace("groups:\n", "groups:\n  root: {box: [[0, -1, -1], [0.004, 1, 1]]}\n")
     text += ("output: {probes: {w: {quantity: relative_displacement, groups: [root, tip], "
              "component: z}}}\n")
-    assert load_case_text(text).solver.method == method
+    s = load_case_text(text).solver
+    assert s.method == method
+    assert s._method_default == ("method:" not in solver)     # `check` says which
