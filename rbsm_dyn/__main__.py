@@ -231,6 +231,12 @@ def _build_and_go(command, path, case, args, lock):
     except CaseError as exc:
         print(f"rbsm_dyn: {exc}", file=sys.stderr)
         return 2
+    if args.threads is None and getattr(case.solver, "threads", None) is None:
+        # no count given: the idle cores, one for a small model (threads.py)
+        import numba
+        from .threads import default_threads
+        threads = _set_threads(default_threads(model.n_springs,
+                                               numba.config.NUMBA_NUM_THREADS), "default")
     _stop_if_interrupted()
     for note in model.warnings:
         print(f"rbsm_dyn: warning: {note}", file=sys.stderr)
