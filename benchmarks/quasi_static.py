@@ -139,11 +139,11 @@ def main(argv=None):
     rows, curves = [], {}
     git = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True,
                          text=True, cwd=HERE).stdout.strip()
-    info = subprocess.run([sys.executable, "-m", "rbsm_dyn", "info",
-                           str(_write(folder, case_text(a.size, "newton")))],
-                          capture_output=True, text=True).stdout
-    model_line = " ".join(line.split(None, 1)[1] for line in info.splitlines()
-                          if line.startswith(("bodies", "springs")))
+    check = subprocess.run([sys.executable, "-m", "rbsm_dyn", "check",
+                            str(_write(folder, case_text(a.size, "newton")))],
+                           capture_output=True, text=True).stdout
+    # "case.yaml: ok (2866 bodies, 95311 spring points)"
+    model_line = check.splitlines()[0].split("ok (", 1)[-1].rstrip(")") if check else "?"
 
     if "newton" not in a.skip:
         h, wall, err, code = run(case_text(a.size, "newton"), "newton", folder, a.threads)
