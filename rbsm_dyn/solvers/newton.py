@@ -324,7 +324,8 @@ class _LowRank:
     Computations, §2.1.4) with P the columns of D's free DOFs and A = Pᵀ ΔK P:
     (K0 + P A Pᵀ)⁻¹ = K0⁻¹ − K0⁻¹ P (I + A Z)⁻¹ A Pᵀ K0⁻¹, Z = Pᵀ K0⁻¹ P,
     Z grown by a multi-right-hand-side solve when bodies join D (a damage
-    zone grows monotonically), (I + A Z) a dense LU each iteration.  The
+    zone grows monotonically), I + A Z (dense, 6|D| square) solved by GMRES
+    on the LU factors of an earlier one (_capacitance).  The
     geometry of K0 is that of its state: the frames and arms turn by at most
     GEOMETRIC_ANGLE meanwhile, a change of the Jacobian of that order (a
     modified Newton iteration; the residual is exact).  Renewed (K0 the
