@@ -285,3 +285,29 @@ def test_low_rank_update_solves_the_changed_matrix(symmetric):
         kfp = K[f][:, nt.disp] @ nt.Up[nt.disp]
         assert np.abs(lr.prescribed() - kfp).max() < 1e-8 * np.abs(kfp).max()
     assert 0 < len(lr.bodies) < m.n_bodies
+
+
+def test_low_rank_renews_past_its_size(monkeypatch):
+    """Past LOWRANK_MAX DOFs of changed bodies the update refuses and
+    Newton.linear refactorises at the present stiffness (a renewal: the
+    changed set starts empty again, and the solve is still exact)."""
+    from rbsm_dyn.case import load_case_text
+    from rbsm_dyn.model import build_model, new_state
+    from rbsm_dyn.solvers import newton as N
+    m = build_model(load_case_text(LOWRANK_BEAM))
+    nt = N.Newton(m)
+    st = new_state(m)
+    _, tri = nt.residual(st, 0.0)
+    k, frames, _ = nt.local(st, tri)
+    lr = N._LowRank(nt, st, k, frames)
+    monkeypatch.setattr(N, "LOWRANK_MAX", 12)               # two bodies
+    k2 = k.copy()
+    k2[np.random.default_rng(1).choice(m.n_springs, 20, replace=False)] *= 0.5
+    assert not lr.update(k2)
+    renewed = N._LowRank(nt, st, k2, frames)
+    assert renewed.update(k2) and renewed.A is None and len(renewed.bodies) == 0
+    f = nt.free
+    B = np.ones((int(f.sum()), 1))
+    K = nt.pattern.matrix(m, st.body_quat, frames, k2).toarray()[f][:, f]
+    X = np.linalg.solve(K, B)
+    assert np.abs(renewed.solve(B) - X).max() < 1e-8 * np.abs(X).max()
