@@ -102,7 +102,10 @@ def run(text, tag, folder, threads, timeout=None):
     path = folder / f"{tag}.yaml"
     path.write_text(text)
     out = folder / f"{tag}.h5"
-    env = dict(os.environ, NUMBA_NUM_THREADS=str(threads), RBSM_PROGRESS="1")
+    # BLAS (the dense capacitance solves of the Newton run) on as many
+    # threads as Numba: "one thread" means one
+    env = dict(os.environ, NUMBA_NUM_THREADS=str(threads), OPENBLAS_NUM_THREADS=str(threads),
+               OMP_NUM_THREADS=str(threads), MKL_NUM_THREADS=str(threads), RBSM_PROGRESS="1")
     t0 = time.perf_counter()
     try:
         r = subprocess.run([sys.executable, "-m", "rbsm_dyn", str(path), "--out", str(out),
