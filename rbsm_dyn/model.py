@@ -307,7 +307,7 @@ def _frames_from_normals(normal):
     s /= np.linalg.norm(s, axis=1)[:, None]
     t = np.cross(normal, s)
     R = np.stack([normal, s, t], axis=2)
-    return np.array([matrix_to_quat(r) for r in R]) if len(R) else np.zeros((0, 4))
+    return matrix_to_quat(R)
 
 
 def _frame_normals(frame):
@@ -541,14 +541,9 @@ def build_model(case, mesh=None):
 
     # bodies: mass, principal inertia and axes
     mass = dens * mesh.cell_volume
-    inertia = np.empty((n, 3))
+    inertia, rot0 = principal_axes(dens[:, None, None] * mesh.cell_inertia)
     quat0 = np.empty((n + 1, 4))
-    rot0 = np.empty((n, 3, 3))
-    for i in range(n):
-        mom, R = principal_axes(dens[i] * mesh.cell_inertia[i])
-        inertia[i] = mom
-        rot0[i] = R
-        quat0[i] = matrix_to_quat(R)
+    quat0[:n] = matrix_to_quat(rot0)
     quat0[n] = (1.0, 0.0, 0.0, 0.0)
     pos0 = np.vstack([cen, np.zeros((1, 3))])
 

@@ -127,34 +127,27 @@ def dlm_free_rotor(q, l0, l1, l2, inertia, h):
 
 def matrix_to_quat(R):
     """Unit quaternion (w, x, y, z), w >= 0, of a proper rotation matrix
-    (Shepperd's method, J. Guidance Control 1, 223, 1978). NumPy, not jitted."""
+    (Shepperd's method, J. Guidance Control 1, 223, 1978): of the four
+    formulas, the one whose pivot (1 + tr R, or 1 + 2 R_ii − tr R) is
+    largest.  NumPy, not jitted; R (3, 3) -> (4,) or a stack (..., 3, 3) ->
+    (..., 4), vectorised (no Python loop over the stack)."""
     R = np.asarray(R, dtype=float)
-    tr = np.trace(R)
-    cands = np.array([tr, R[0, 0], R[1, 1], R[2, 2]])
-    k = int(np.argmax(cands))
-    if k == 0:
-        w = 0.5 * math.sqrt(1.0 + tr)
-        x = (R[2, 1] - R[1, 2]) / (4 * w)
-        y = (R[0, 2] - R[2, 0]) / (4 * w)
-        z = (R[1, 0] - R[0, 1]) / (4 * w)
-    elif k == 1:
-        x = 0.5 * math.sqrt(1.0 + 2 * R[0, 0] - tr)
-        w = (R[2, 1] - R[1, 2]) / (4 * x)
-        y = (R[0, 1] + R[1, 0]) / (4 * x)
-        z = (R[0, 2] + R[2, 0]) / (4 * x)
-    elif k == 2:
-        y = 0.5 * math.sqrt(1.0 + 2 * R[1, 1] - tr)
-        w = (R[0, 2] - R[2, 0]) / (4 * y)
-        x = (R[0, 1] + R[1, 0]) / (4 * y)
-        z = (R[1, 2] + R[2, 1]) / (4 * y)
-    else:
-        z = 0.5 * math.sqrt(1.0 + 2 * R[2, 2] - tr)
-        w = (R[1, 0] - R[0, 1]) / (4 * z)
-        x = (R[0, 2] + R[2, 0]) / (4 * z)
-        y = (R[1, 2] + R[2, 1]) / (4 * z)
-    q = np.array([w, x, y, z])
-    q /= np.linalg.norm(q)
-    return q if q[0] >= 0 else -q
+    r00, r11, r22 = R[..., 0, 0], R[..., 1, 1], R[..., 2, 2]
+    tr = r00 + r11 + r22
+    k = np.argmax(np.stack([tr, r00, r11, r22]), axis=0)
+    d21, d02, d10 = R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0], R[..., 1, 0] - R[..., 0, 1]
+    s01, s02, s12 = R[..., 0, 1] + R[..., 1, 0], R[..., 0, 2] + R[..., 2, 0], R[..., 1, 2] + R[..., 2, 1]
+    # the pivot component of each formula (its square root argument ≥ 1)
+    piv = 0.5 * np.sqrt(np.maximum(1.0 + np.choose(k, [tr, 2 * r00 - tr, 2 * r11 - tr,
+                                                        2 * r22 - tr]), 1.0))
+    f = 4.0 * piv
+    q = np.empty(R.shape[:-2] + (4,))
+    q[...] = np.choose(k[..., None], [np.stack([piv, d21 / f, d02 / f, d10 / f], -1),
+                                      np.stack([d21 / f, piv, s01 / f, s02 / f], -1),
+                                      np.stack([d02 / f, s01 / f, piv, s12 / f], -1),
+                                      np.stack([d10 / f, s02 / f, s12 / f, piv], -1)])
+    q /= np.sqrt(np.sum(q * q, axis=-1))[..., None]
+    return np.where(q[..., :1] >= 0, q, -q)
 
 
 def quat_matrix_np(q):
