@@ -8,6 +8,10 @@ import os as _os
 # first parallel kernel), so set on import; a value the user set is kept.
 _os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 __version__ = "0.1.0"
+
+from . import _kernel_cache as _kc   # noqa: E402  (before any module defines a kernel)
+
+_kc.configure()
 __all__ = ["open_history", "load_case", "__version__"]
 
 

@@ -175,14 +175,14 @@ def test_memory_estimate_against_the_measured_peak_of_a_run(tmp_path):
     tiny.write_text(VORONOI.replace("SIZE", "0.05"), encoding="utf-8")
     big = tmp_path / "big.yaml"
     big.write_text(VORONOI.replace("SIZE", "0.0047"), encoding="utf-8")
-    from rbsm_dyn.physics import _kernel_cache_dir
+    from rbsm_dyn._kernel_cache import kernel_cache_dir
     # a first process fills Numba's cache: compiling in the measuring one
     # would raise its baseline by hundreds of MB (LLVM).  Both get the same
     # cache folder, named now (an edit of the sources in between would
     # otherwise send the second process to a new, empty one)
     env = dict(__import__("os").environ, NUMBA_NUM_THREADS="1",
                NUMBA_CACHE_DIR=__import__("os").environ.get("NUMBA_CACHE_DIR")
-               or str(_kernel_cache_dir()))
+               or str(kernel_cache_dir()))
     r = subprocess.run([sys.executable, "-m", "rbsm_dyn", str(tiny), "--out",
                         str(tmp_path / "warm.h5"), "--quiet", "--max-steps", "5"], env=env,
                        capture_output=True, text=True, timeout=600)
