@@ -12,6 +12,13 @@ Physics:
 adds the Poisson correction's auxiliary stress pass, physics/poisson.py).
 Ends with one line (the contract of issue 5):
   bench: bodies=B springs=S steps=K threads=T physics=P ns_per_spring_step=X ns_per_body_step=Y
+`--threads` may name `default`: the count a run picks when none is given
+(rbsm_dyn/threads.py: one below SERIAL_SPRINGS, else the idle cores).
+`--sizes 600,5000,5e4,1e6` times each size in its own process (memory and
+start-up apart) with 1 and the default thread count, steps chosen for about
+--seconds of loop each, and prints a table: build µs per body, ns per
+spring-point-step on 1 and default threads, their ratio, and memory: the
+peak resident size (the build's) and the resident size while stepping.
 """
 import argparse
 import sys
@@ -80,11 +87,17 @@ def run(bodies, steps, threads, physics, repeat=3, out=print, poisson=0.2):
     from .model import apply_initial, build_model, new_state
     from .solvers.explicit import advance, choose_dt, start_half_step
 
+    r0 = _rss("VmRSS")
     t0 = time.perf_counter()
     case = load_case_text(case_text(bodies, physics, poisson), "bench.yaml")
     model = build_model(case)
     t_build = time.perf_counter() - t0
     S, N = model.n_springs, model.n_bodies
+    if "default" in threads:
+        from .threads import default_threads
+        nt_default = default_threads(S, numba.config.NUMBA_NUM_THREADS)
+        out(f"default threads for {S} spring points on this machine now: {nt_default}")
+        threads = list(dict.fromkeys(nt_default if t == "default" else t for t in threads))
     out(f"model: {N} bodies, {S} spring points, physics {physics} "
         f"({'inelastic' if model.inelastic else 'elastic'} kernel), ν = {poisson}"
         + (f" (Poisson correction on: {len(model.poisson.slot_cell)} cell-neighbour slots)"
@@ -97,6 +110,8 @@ def run(bodies, steps, threads, physics, repeat=3, out=print, poisson=0.2):
         start_half_step(model, st)
         return st
 
+    peak = _rss("VmHWM") - r0
+    per_body, per_spring, other = footprint(model, fresh())
     t0 = time.perf_counter()
     advance(model, fresh(), 1)
     t_first = time.perf_counter() - t0
@@ -108,6 +123,10 @@ def run(bodies, steps, threads, physics, repeat=3, out=print, poisson=0.2):
         row = _report(model, finals[nt], steps, nt, physics, walls[nt], cpus[nt], out)
         row.update(build=t_build, first=t_first)
         rows.append(row)
+    foot = (per_body * N + per_spring * S + other) / 2**20
+    out(f"memory: build peak {peak:.0f} MiB (resident size above the {r0:.0f} MiB before it), "
+        f"model and state {foot:.0f} MiB = {per_body:.0f} B per body + {per_spring:.0f} B per "
+        f"spring point + {other / 2**20:.1f} MiB; build {t_build / N * 1e6:.0f} µs per body")
     if len(threads) > 1:
         t1 = threads[0]
         for nt in threads[1:]:
@@ -120,6 +139,84 @@ def run(bodies, steps, threads, physics, repeat=3, out=print, poisson=0.2):
         same = all(np.array_equal(getattr(finals[threads[0]], k), getattr(finals[nt], k))
                    for k in ("body_pos", "body_quat", "body_vel", "body_angmom"))
         out(f"final state {threads[0]} vs {nt} threads bitwise identical: {'yes' if same else 'NO'}")
+    return rows
+
+
+def footprint(model, state):
+    """(bytes per body, bytes per spring point, other bytes) of the NumPy
+    arrays of a model and its state, by their first dimension (bodies, the
+    ground slot included, or spring points)."""
+    nb_, ns_ = model.n_bodies, model.n_springs
+    per = {"body": 0, "spring": 0, "other": 0}
+    seen = set()
+    for obj in (model, state):
+        for v in list(vars(obj).values()) + [getattr(v, "__dict__", {}) for v in
+                                              vars(obj).values()]:
+            for a in (v.values() if isinstance(v, dict) else [v]):
+                if not isinstance(a, np.ndarray) or id(a) in seen:
+                    continue
+                seen.add(id(a))
+                n0 = a.shape[0] if a.ndim else 0
+                kind = ("spring" if n0 in (ns_, ns_ + 1) and ns_ > nb_ + 1 else
+                        "body" if n0 in (nb_, nb_ + 1) else "other")
+                per[kind] += a.nbytes
+    return per["body"] / nb_, per["spring"] / ns_, per["other"]
+
+
+def _rss(key):
+    """Resident size [MiB] from /proc/self/status (VmRSS now, VmHWM peak);
+    NaN where there is no /proc."""
+    try:
+        with open("/proc/self/status") as f:
+            for line in f:
+                if line.startswith(key + ":"):
+                    return int(line.split()[1]) / 1024.0
+    except OSError:
+        pass
+    return float("nan")
+
+
+def sizes(bodies_list, physics, seconds, repeat, out=print):
+    """Each size in its own process (`bench --bodies N --threads 1,default`);
+    a Markdown table of the rows."""
+    import os
+    import re
+    import subprocess
+    rows = []
+    pat = {k: re.compile(v) for k, v in {
+        "model": r"model: (\d+) bodies, (\d+) spring points.*build ([\d.]+) s",
+        "bench": r"bench: .*threads=(\d+) .*ns_per_spring_step=([\d.]+)",
+        "mem": r"memory: build peak (\S+) MiB .* model and state (\S+) MiB = (\d+) B per body "
+               r"\+ (\d+) B per spring point.*; build (\d+)",
+        "default": r"default threads for \d+ spring points on this machine now: (\d+)"}.items()}
+    for bodies in bodies_list:
+        # about `seconds` of loop at ~25 ns per spring-point-step, 37 points per body
+        steps = int(min(5000, max(10, seconds / (25e-9 * 37 * bodies))))
+        cmd = [sys.executable, "-m", "rbsm_dyn", "bench", "--bodies", str(bodies), "--steps",
+               str(steps), "--threads", "1,default", "--physics", physics, "--repeat",
+               str(repeat)]
+        out(f"$ {' '.join(cmd[1:])}")
+        r = subprocess.run(cmd, capture_output=True, text=True, env=os.environ.copy())
+        if r.returncode != 0:
+            out(f"  failed (exit {r.returncode}): {r.stderr.strip().splitlines()[-1:]}")
+            continue
+        text = r.stdout
+        for line in text.splitlines():
+            out("  " + line)
+        mm, mem = pat["model"].search(text), pat["mem"].search(text)
+        ns = {int(t): float(x) for t, x in pat["bench"].findall(text)}
+        nd = int(pat["default"].search(text).group(1))
+        rows.append((int(mm.group(1)), int(mm.group(2)), steps, float(mm.group(3)),
+                     int(mem.group(5)), ns[1], nd, ns[nd], float(mem.group(1)),
+                     float(mem.group(2)), int(mem.group(3)), int(mem.group(4))))
+    out("")
+    out("| bodies | spring points | steps | build [s] | build [µs/body] | 1 thread "
+        "[ns/spring-step] | default threads | default [ns/spring-step] | default / 1 | "
+        "build peak [MiB] | model + state [MiB] | [B/body] + [B/spring point] |")
+    out("|" + "---|" * 12)
+    for (N, S, steps, tb, us, ns1, nd, nsd, peak, foot, pb, ps) in rows:
+        out(f"| {N} | {S} | {steps} | {tb:.1f} | {us} | {ns1:.1f} | {nd} | {nsd:.1f} | "
+            f"{ns1 / nsd:.2f}x | {peak:.0f} | {foot:.0f} | {pb} + {ps} |")
     return rows
 
 
@@ -177,16 +274,31 @@ def main(argv=None):
                    help="ν of the steel (default 0.2: the α table, no correction; "
                         "above 0.25 the Poisson correction runs, physics/poisson.py)")
     p.add_argument("--repeat", type=int, default=3, help="timed rounds (each times every thread count once), best kept (default 3)")
+    p.add_argument("--sizes", default=None,
+                   help="comma list of body counts, each timed in its own process with 1 and "
+                        "the default thread count (e.g. 600,5000,5e4,1e6)")
+    p.add_argument("--seconds", type=float, default=2.0,
+                   help="with --sizes: about this much loop time per timing (default 2)")
     a = p.parse_args(argv)
+    if a.sizes is not None:
+        try:
+            bodies = [int(float(b)) for b in a.sizes.split(",")]
+        except ValueError:
+            p.error(f"--sizes: numbers separated by commas (got {a.sizes!r})")
+        if min(bodies) < 8:
+            p.error("--sizes: each ≥ 8 bodies")
+        sizes(bodies, a.physics, a.seconds, a.repeat)
+        return 0
     try:
-        threads = [int(t) for t in a.threads.split(",")]
+        threads = [t if t == "default" else int(t) for t in a.threads.split(",")]
     except ValueError:
-        p.error(f"--threads: integers separated by commas (got {a.threads!r})")
-    if a.bodies < 8 or a.steps < 1 or min(threads) < 1 or a.repeat < 1:
+        p.error(f"--threads: integers or 'default' separated by commas (got {a.threads!r})")
+    counts = [t for t in threads if t != "default"]
+    if a.bodies < 8 or a.steps < 1 or (counts and min(counts) < 1) or a.repeat < 1:
         p.error("--bodies ≥ 8, --steps, --threads and --repeat ≥ 1")
     import numba
-    if max(threads) > numba.config.NUMBA_NUM_THREADS:
-        p.error(f"--threads {max(threads)} > NUMBA_NUM_THREADS = "
+    if counts and max(counts) > numba.config.NUMBA_NUM_THREADS:
+        p.error(f"--threads {max(counts)} > NUMBA_NUM_THREADS = "
                 f"{numba.config.NUMBA_NUM_THREADS}")
     run(int(a.bodies), a.steps, threads, a.physics, a.repeat, poisson=a.poisson)
     return 0

@@ -32,3 +32,23 @@ def test_bench_rejects_bad_options():
     p = subprocess.run([sys.executable, "-m", "rbsm_dyn", "bench", "--threads", "x"],
                        capture_output=True, text=True, timeout=300)
     assert p.returncode == 2 and "--threads" in p.stderr and "Traceback" not in p.stderr
+
+
+def test_bench_sizes_table():
+    """`bench --sizes`: one row per size, each in its own process, timed on
+    1 and the default thread count, which is 1 below threads.SERIAL_SPRINGS
+    (these models have a few thousand spring points)."""
+    p = subprocess.run([sys.executable, "-m", "rbsm_dyn", "bench", "--sizes", "40,90",
+                        "--seconds", "0.02", "--repeat", "1"], capture_output=True, text=True,
+                       timeout=900)
+    assert p.returncode == 0, p.stderr
+    rows = [line.split("|")[1:-1] for line in p.stdout.splitlines()
+            if line.startswith("| ") and not line.startswith("| bodies")]
+    assert len(rows) == 2
+    for cells in rows:
+        bodies, springs = int(cells[0]), int(cells[1])
+        assert springs > 10 * bodies
+        assert int(cells[6]) == 1                     # default threads: serial when small
+        per_body, per_spring = (int(x) for x in cells[11].split("+"))
+        # the kernel's own per-spring arrays alone (bodies, arms, frame, k): ≥ 100 B
+        assert per_spring >= 100 and per_body > 0
