@@ -21,7 +21,7 @@ from .physics.laws import (BROKEN, CONTACT_OFF, CRITERIA, ELASTIC, N_PARAMS, P_C
                            P_EPSCR, P_FT, P_GF, P_GS, P_MU, P_RS, P_RUPT, P_SY, P_TANPHI,
                            P_TENSION, RUPTURE_KINDS)
 from .physics.poisson import build_poisson, empty_poisson, poisson_abs_product
-from .physics.rotation import matrix_to_quat
+from .physics.rotation import matrix_to_quat, quat_matrix_np
 
 IDX = np.int32
 FACES = ("xmin", "xmax", "ymin", "ymax", "zmin", "zmax")
@@ -42,7 +42,8 @@ class Model:
       (the ground's frame is the world frame); spring_frame0 (S, 4) quaternion
       of the reference frame (n, s, t) with n from a to b; spring_n0 (S, 3)
       its n (world, reference); spring_k (S, 3) [N/m] = (k_n, k_s, k_t) × area;
-      spring_point, spring_normal (S, 3);
+      spring_point, spring_normal (S, 3): computed when asked (output,
+      export), not held: the rest position (on body a) and spring_n0;
       spring_area, spring_h (S,) [m², m]; spring_face (S,) int32 (internal
       face id, or −1 − boundary face id for supports).
     Spring laws (physics/laws/): spring_law (S,) int32 row of law_params
@@ -83,8 +84,6 @@ class Model:
     spring_frame0: np.ndarray
     spring_k: np.ndarray
     spring_n0: np.ndarray
-    spring_point: np.ndarray
-    spring_normal: np.ndarray
     spring_area: np.ndarray
     spring_h: np.ndarray
     spring_face: np.ndarray
@@ -117,6 +116,20 @@ class Model:
     def poisson_on(self):
         """True when the auxiliary-stress pass runs (physics/poisson.py)."""
         return self.poisson is not None and len(self.poisson.slot_cell) > 0
+
+    @property
+    def spring_normal(self):
+        """(S, 3) unit normal of each spring point at rest (world): spring_n0."""
+        return self.spring_n0
+
+    @property
+    def spring_point(self):
+        """(S, 3) rest position [m] of each spring point: body a's centroid
+        plus its arm (the ground's frame is the world's).  Computed, not
+        held (48 B per spring point with spring_normal; issue 15)."""
+        a = self.spring_bodies[:, 0]
+        return self.body_pos0[a] + np.einsum("sij,sj->si", quat_matrix_np(self.body_quat0[a]),
+                                             self.spring_arm_a)
 
     @property
     def n_springs(self):
@@ -803,8 +816,7 @@ def build_model(case, mesh=None):
         spring_bodies=sb, spring_arm_a=np.ascontiguousarray(arm_a),
         spring_arm_b=np.ascontiguousarray(arm_b), spring_frame0=cat["frame"],
         spring_k=np.ascontiguousarray(cat["k"]), spring_n0=_frame_normals(cat["frame"]),
-        spring_point=cat["point"],
-        spring_normal=cat["normal"], spring_area=cat["area"], spring_h=cat["h"],
+        spring_area=cat["area"], spring_h=cat["h"],
         spring_face=cat["face"].astype(IDX), group_ptr=group_ptr, phase_ptr=phase_ptr,
         dof_kind=dof_kind, dof_value=dof_value, dof_hist=dof_hist,
         body_fext=fext, body_mext=mext, body_ffol=ffol, body_mfol=mfol,

@@ -133,7 +133,7 @@ def test_one_spring_between_two_blocks_matches_the_hand_formula():
     one = dataclasses.replace(model, **{
         k: getattr(model, k)[s:s + 1] for k in
         ("spring_bodies", "spring_arm_a", "spring_arm_b", "spring_frame0", "spring_k",
-         "spring_point", "spring_normal", "spring_area", "spring_h", "spring_face")})
+         "spring_n0", "spring_area", "spring_h", "spring_face")})
     A = model.spring_area[s]
     h = 1.0                                                  # centroid distance
     kn, ks = E * A / h, 0.5 * E * A / h                      # Kawai 1978 eq. 13 × area
