@@ -21,7 +21,7 @@ from .physics.laws import (BROKEN, CONTACT_OFF, CRITERIA, ELASTIC, N_PARAMS, P_C
                            P_EPSCR, P_FT, P_GF, P_GS, P_MU, P_RS, P_RUPT, P_SY, P_TANPHI,
                            P_TENSION, RUPTURE_KINDS)
 from .physics.poisson import build_poisson, empty_poisson, poisson_abs_product
-from .physics.rotation import matrix_to_quat, quat_matrix_np
+from .physics.rotation import frames_from_normals, matrix_to_quat, quat_matrix_np
 
 IDX = np.int32
 FACES = ("xmin", "xmax", "ymin", "ymax", "zmin", "zmax")
@@ -315,12 +315,9 @@ def part_mesh(case, part):
 
 def _frames_from_normals(normal):
     """Quaternions of right-handed frames (n, s, t) for unit normals (S, 3)."""
-    helper = np.where(np.abs(normal[:, [0]]) < 0.9, [[1.0, 0, 0]], [[0, 1.0, 0]])
-    s = np.cross(normal, helper)
-    s /= np.linalg.norm(s, axis=1)[:, None]
-    t = np.cross(normal, s)
-    R = np.stack([normal, s, t], axis=2)
-    return matrix_to_quat(R)
+    out = np.empty((len(normal), 4))
+    frames_from_normals(np.ascontiguousarray(normal, dtype=float), out)
+    return out
 
 
 def _frame_normals(frame):

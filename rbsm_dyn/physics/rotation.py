@@ -150,6 +150,51 @@ def matrix_to_quat(R):
     return np.where(q[..., :1] >= 0, q, -q)
 
 
+@nb.njit(**JIT)
+def frames_from_normals(normal, out):
+    """out (S, 4): quaternions of the right-handed frames (n, s, t) of unit
+    normals n (S, 3), s = n × e / |n × e| with e = x (or y where |n_x| ≥
+    0.9), t = n × s; the frame's matrix [n s t] turned into a quaternion as
+    matrix_to_quat does (Shepperd 1978), w ≥ 0.  No temporaries: a build
+    of 10⁶ cells has 4·10⁷ of them."""
+    for i in range(normal.shape[0]):
+        n0, n1, n2 = normal[i, 0], normal[i, 1], normal[i, 2]
+        if abs(n0) < 0.9:
+            s0, s1, s2 = 0.0, n2, -n1           # n × (1, 0, 0)
+        else:
+            s0, s1, s2 = -n2, 0.0, n0           # n × (0, 1, 0)
+        r = 1.0 / math.sqrt(s0 * s0 + s1 * s1 + s2 * s2)
+        s0 *= r
+        s1 *= r
+        s2 *= r
+        t0, t1, t2 = n1 * s2 - n2 * s1, n2 * s0 - n0 * s2, n0 * s1 - n1 * s0
+        # R = [n s t] (columns: R[r, 1] = s_r): R[0, 0] = n0, R[1, 1] = s1, R[2, 2] = t2
+        tr = n0 + s1 + t2
+        if tr >= n0 and tr >= s1 and tr >= t2:
+            w = 0.5 * math.sqrt(1.0 + tr)
+            f = 0.25 / w
+            x, y, z = (s2 - t1) * f, (t0 - n2) * f, (n1 - s0) * f
+        elif n0 >= s1 and n0 >= t2:
+            x = 0.5 * math.sqrt(1.0 + 2.0 * n0 - tr)
+            f = 0.25 / x
+            w, y, z = (s2 - t1) * f, (s0 + n1) * f, (t0 + n2) * f
+        elif s1 >= t2:
+            y = 0.5 * math.sqrt(1.0 + 2.0 * s1 - tr)
+            f = 0.25 / y
+            w, x, z = (t0 - n2) * f, (s0 + n1) * f, (t1 + s2) * f
+        else:
+            z = 0.5 * math.sqrt(1.0 + 2.0 * t2 - tr)
+            f = 0.25 / z
+            w, x, y = (n1 - s0) * f, (t0 + n2) * f, (t1 + s2) * f
+        r = 1.0 / math.sqrt(w * w + x * x + y * y + z * z)
+        if w < 0.0:
+            r = -r
+        out[i, 0] = w * r
+        out[i, 1] = x * r
+        out[i, 2] = y * r
+        out[i, 3] = z * r
+
+
 def quat_matrix_np(q):
     """Rotation matrices of quaternions q (..., 4) -> (..., 3, 3). NumPy."""
     q = np.asarray(q, dtype=float)
