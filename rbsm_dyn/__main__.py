@@ -28,13 +28,16 @@ def _parser():
     p = argparse.ArgumentParser(prog="python -m rbsm_dyn",
                                 description="Rigid-body-spring model (Kawai RBSM), explicit dynamics.")
     p.add_argument("command_or_case", help="run | check | info, or the case file to run "
-                   "(export | render | plot RUN.h5: see python -m rbsm_dyn export --help)")
+                   "(export | render | plot RUN.h5: see python -m rbsm_dyn export --help; "
+                   "bench: time the explicit loop, python -m rbsm_dyn bench --help)")
     p.add_argument("case", nargs="?", help="case file (after a command)")
     p.add_argument("--out", help="output HDF5 file (overrides output.file)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--max-steps", type=int, default=None,
                    help="stop after this many steps (iterations in static mode)")
-    p.add_argument("--threads", type=int, default=None, help="Numba threads")
+    p.add_argument("--threads", type=int, default=None,
+                   help="Numba threads (default: 1 below 30 000 spring points, else the cores "
+                        "the load average leaves idle)")
     p.add_argument("--restart", metavar="RUN.h5",
                    help="continue the run of this history file from its last checkpoint "
                    "(dynamic mode; frames are appended to RUN.h5)")
