@@ -114,6 +114,16 @@ def main(argv=None):
         pass
     try:
         return _main(argv)
+    except BrokenPipeError:
+        # the reader of stdout has gone (`info case.yaml | head`): quiet, as
+        # other Unix tools; stdout pointed at /dev/null so that the final
+        # flush does not raise again (Python docs, "Note on SIGPIPE")
+        import os
+        try:
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        except (OSError, ValueError):
+            pass
+        return 141
     except KeyboardInterrupt:
         try:
             print("rbsm_dyn: interrupted", file=sys.stderr)

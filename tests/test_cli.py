@@ -97,3 +97,19 @@ def test_static_run_that_does_not_converge_exits_1(tmp_path, capsys):
     assert "did not converge" in err and "max_iterations" in err
     h = rbsm_dyn.open_history(out)
     assert h.status.startswith("failed")
+
+
+def test_a_closed_pipe_ends_quietly(tmp_path):
+    """`check case.yaml | head -0`: the reader has left before the listing
+    is written; it meets a closed pipe.  Exit 141 (128 + SIGPIPE, as other
+    Unix tools), no traceback."""
+    import subprocess
+    import sys
+    path = tmp_path / "tiny.yaml"
+    path.write_text(TINY, encoding="utf-8")
+    p = subprocess.Popen([sys.executable, "-m", "rbsm_dyn", "check", str(path)],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    p.stdout.close()                     # before the child has written anything
+    err = p.stderr.read().decode()
+    assert p.wait(timeout=300) == 141
+    assert "Traceback" not in err and "BrokenPipe" not in err, err
