@@ -25,6 +25,7 @@ body sits far from the origin.
 """
 from __future__ import annotations
 
+import numba as nb
 import numpy as np
 
 __all__ = ["mass_properties", "principal_axes", "cells_mass_properties"]
@@ -51,6 +52,43 @@ def _fan_triangles(poly_ptr, poly_vertex):
     return tri, tri_poly
 
 
+@nb.njit(cache=True)
+def _tet_moments(vertices, poly_ptr, poly_vertex, cell_poly_ptr, ref, volume, first, cov):
+    """Σ over the fan tetrahedra (ref, v0, v_k, v_k+1) of each cell: volume
+    V = r1·(r2 × r3)/6, first moment V s/4 and second moment V/20 (Σ r_i r_iᵀ
+    + s sᵀ), s = r1 + r2 + r3 (the module docstring; Tonon 2004); a loop,
+    no per-triangle temporaries."""
+    for c in range(cell_poly_ptr.shape[0] - 1):
+        o0, o1, o2 = ref[c, 0], ref[c, 1], ref[c, 2]
+        for p in range(cell_poly_ptr[c], cell_poly_ptr[c + 1]):
+            b = poly_ptr[p]
+            v = poly_vertex[b]
+            a0, a1, a2 = vertices[v, 0] - o0, vertices[v, 1] - o1, vertices[v, 2] - o2
+            for k in range(b + 1, poly_ptr[p + 1] - 1):
+                v = poly_vertex[k]
+                b0, b1, b2 = vertices[v, 0] - o0, vertices[v, 1] - o1, vertices[v, 2] - o2
+                v = poly_vertex[k + 1]
+                d0, d1, d2 = vertices[v, 0] - o0, vertices[v, 1] - o1, vertices[v, 2] - o2
+                vol = (a0 * (b1 * d2 - b2 * d1) + a1 * (b2 * d0 - b0 * d2)
+                       + a2 * (b0 * d1 - b1 * d0)) / 6.0
+                s0, s1, s2 = a0 + b0 + d0, a1 + b1 + d1, a2 + b2 + d2
+                volume[c] += vol
+                first[c, 0] += vol * s0 / 4.0
+                first[c, 1] += vol * s1 / 4.0
+                first[c, 2] += vol * s2 / 4.0
+                r1 = (a0, a1, a2)
+                r2 = (b0, b1, b2)
+                r3 = (d0, d1, d2)
+                s = (s0, s1, s2)
+                for i in range(3):
+                    for j in range(i, 3):
+                        t = r1[i] * r1[j] + r2[i] * r2[j] + r3[i] * r3[j] + s[i] * s[j]
+                        cov[c, i, j] += vol * t / 20.0
+        for i in range(3):
+            for j in range(i + 1, 3):
+                cov[c, j, i] = cov[c, i, j]
+
+
 def cells_mass_properties(vertices, poly_ptr, poly_vertex, cell_poly_ptr, ref=None):
     """Volume, centroid and inertia (about the centroid) of many polyhedra.
 
@@ -73,25 +111,16 @@ def cells_mass_properties(vertices, poly_ptr, poly_vertex, cell_poly_ptr, ref=No
             [np.bincount(vcell, vertices[poly_vertex, j], minlength=n_cells) for j in range(3)],
             axis=1,
         ) / cnt[:, None]
-    ref = np.asarray(ref, dtype=np.float64)
-    tri, tri_poly = _fan_triangles(poly_ptr, poly_vertex)
-    tcell = poly_cell[tri_poly]
-    o = ref[tcell]
-    r1 = vertices[tri[:, 0]] - o
-    r2 = vertices[tri[:, 1]] - o
-    r3 = vertices[tri[:, 2]] - o
-    vol = np.einsum("ij,ij->i", r1, np.cross(r2, r3)) / 6.0
-    s = r1 + r2 + r3
-    volume = np.bincount(tcell, vol, minlength=n_cells)
-    first = np.stack([np.bincount(tcell, vol * s[:, j], minlength=n_cells) for j in range(3)], 1) / 4.0
+    ref = np.ascontiguousarray(ref, dtype=np.float64)
+    poly_ptr = np.asarray(poly_ptr, dtype=np.int64)
+    if np.any(np.diff(poly_ptr) < 3):
+        raise ValueError("every polygon needs at least 3 vertices")
+    volume = np.zeros(n_cells)
+    first = np.zeros((n_cells, 3))
+    cov = np.zeros((n_cells, 3, 3))
+    _tet_moments(vertices, poly_ptr, np.asarray(poly_vertex, dtype=np.int64), cell_poly_ptr,
+                 ref, volume, first, cov)
     g = first / volume[:, None]
-    # second moment about ref: V/20 (Σ r r^T + s s^T)
-    cov = np.empty((n_cells, 3, 3))
-    for i in range(3):
-        for j in range(i, 3):
-            t = r1[:, i] * r1[:, j] + r2[:, i] * r2[:, j] + r3[:, i] * r3[:, j] + s[:, i] * s[:, j]
-            cov[:, i, j] = np.bincount(tcell, vol * t, minlength=n_cells) / 20.0
-            cov[:, j, i] = cov[:, i, j]
     cov -= volume[:, None, None] * (g[:, :, None] * g[:, None, :])  # exactly symmetric
     tr = np.trace(cov, axis1=1, axis2=2)
     inertia = tr[:, None, None] * np.eye(3) - cov
