@@ -313,6 +313,22 @@ def part_mesh(case, part):
         raise case.error(part.mesh_path, str(exc)) from None
 
 
+@nb.njit(cache=True)
+def _arms(rot, pos0, sb, point, arm_a, arm_b):
+    """Arms of the spring points in their bodies' principal frames:
+    arm = Rᵀ (point − centroid), for body a and body b (the ground's R is
+    the identity); a loop, no (S, 3, 3) gather."""
+    for s in range(sb.shape[0]):
+        for side in range(2):
+            i = sb[s, side]
+            d0 = point[s, 0] - pos0[i, 0]
+            d1 = point[s, 1] - pos0[i, 1]
+            d2 = point[s, 2] - pos0[i, 2]
+            out = arm_a if side == 0 else arm_b
+            for c in range(3):
+                out[s, c] = rot[i, 0, c] * d0 + rot[i, 1, c] * d1 + rot[i, 2, c] * d2
+
+
 def _frames_from_normals(normal):
     """Quaternions of right-handed frames (n, s, t) for unit normals (S, 3)."""
     out = np.empty((len(normal), 4))
@@ -673,15 +689,19 @@ def build_model(case, mesh=None):
                              + (0 if item.breakable else n_slots)).astype(IDX),
                         state0=np.zeros(len(cell), dtype=np.int8)))
 
-    parts = [internal] + sup
-    cat = {key: np.concatenate([p[key] for p in parts]) for key in internal}
+    pieces = [internal] + sup
+    cat = {key: np.concatenate([p[key] for p in pieces]) for key in internal}
+    del pieces, internal, sup          # (the build's peak memory: one copy at a time)
     # spring order of the thread-safe schedule (partition.py): by group, then (a, b)
     order, group_ptr, phase_ptr = spring_schedule(np.stack([cat["a"], cat["b"]], axis=1), n)
-    cat = {key: v[order] for key, v in cat.items()}
+    for key in list(cat):
+        cat[key] = cat[key][order]
+    del order
     sb = np.stack([cat["a"], cat["b"]], axis=1).astype(IDX)
-    rot_all = np.concatenate([rot0, np.eye(3)[None]])
-    arm_a = np.einsum("ski,sk->si", rot_all[sb[:, 0]], cat["point"] - pos0[sb[:, 0]])
-    arm_b = np.einsum("ski,sk->si", rot_all[sb[:, 1]], cat["point"] - pos0[sb[:, 1]])
+    rot_all = np.ascontiguousarray(np.concatenate([rot0, np.eye(3)[None]]))
+    arm_a = np.empty((len(sb), 3))
+    arm_b = np.empty((len(sb), 3))
+    _arms(rot_all, pos0, sb, np.ascontiguousarray(cat.pop("point")), arm_a, arm_b)
 
     # constraints and prescribed motion
     hist_t, hist_a, hist_ptr = [], [], [0]
