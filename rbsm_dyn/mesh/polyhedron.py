@@ -73,9 +73,9 @@ def _tet_moments(vertices, poly_ptr, poly_vertex, cell_poly_ptr, ref, volume, fi
                        + a2 * (b0 * d1 - b1 * d0)) / 6.0
                 s0, s1, s2 = a0 + b0 + d0, a1 + b1 + d1, a2 + b2 + d2
                 volume[c] += vol
-                first[c, 0] += vol * s0 / 4.0
-                first[c, 1] += vol * s1 / 4.0
-                first[c, 2] += vol * s2 / 4.0
+                first[c, 0] += vol * s0
+                first[c, 1] += vol * s1
+                first[c, 2] += vol * s2
                 r1 = (a0, a1, a2)
                 r2 = (b0, b1, b2)
                 r3 = (d0, d1, d2)
@@ -83,9 +83,13 @@ def _tet_moments(vertices, poly_ptr, poly_vertex, cell_poly_ptr, ref, volume, fi
                 for i in range(3):
                     for j in range(i, 3):
                         t = r1[i] * r1[j] + r2[i] * r2[j] + r3[i] * r3[j] + s[i] * s[j]
-                        cov[c, i, j] += vol * t / 20.0
+                        cov[c, i, j] += vol * t
+        # (the sums first, the constant factors after: the rounding of the
+        # per-triangle NumPy form this replaced, bit for bit)
         for i in range(3):
-            for j in range(i + 1, 3):
+            first[c, i] /= 4.0
+            for j in range(i, 3):
+                cov[c, i, j] /= 20.0
                 cov[c, j, i] = cov[c, i, j]
 
 
