@@ -118,7 +118,6 @@ def main(argv=None):
         # the reader of stdout has gone (`info case.yaml | head`): quiet, as
         # other Unix tools; stdout pointed at /dev/null so that the final
         # flush does not raise again (Python docs, "Note on SIGPIPE")
-        import os
         try:
             os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         except (OSError, ValueError):
