@@ -41,6 +41,9 @@ def _parser():
     p.add_argument("--restart", metavar="RUN.h5",
                    help="continue the run of this history file from its last checkpoint "
                    "(dynamic mode; frames are appended to RUN.h5)")
+    p.add_argument("--no-model-cache", action="store_true",
+                   help="build the model even when .rbsm_cache/ beside the case holds it, and "
+                        "do not write it there (also RBSM_MODEL_CACHE=0)")
     return p
 
 
@@ -230,16 +233,8 @@ def _build_and_go(command, path, case, args, lock):
         threads = _set_threads(args.threads, "--threads")
     else:
         threads = _set_threads(getattr(case.solver, "threads", None), "solver.threads")
-    from .model import build_model
-    cells = _cell_estimate(case)
-    if cells > BUILD_NOTICE_CELLS and not getattr(args, "quiet", False):
-        # a build of 10⁵ cells takes tens of seconds: say what is going on
-        what = (f"{case.mesh.kind}, domain {case.domain.kind()}" if not case.parts
-                else f"{len(case.parts)} parts")
-        print(f"rbsm_dyn: building about {cells:.3g} cells ({what})...", file=sys.stderr,
-              flush=True)
     try:
-        model = build_model(case)
+        model = _model(command, case, args)
     except CaseError as exc:
         print(f"rbsm_dyn: {exc}", file=sys.stderr)
         return 2
@@ -272,6 +267,41 @@ def _build_and_go(command, path, case, args, lock):
         return _info(case, model, threads)
     _stop_if_interrupted()
     return _run(case, model, args, threads, lock)
+
+
+def _model(command, case, args):
+    """The case's model: from the cache beside the case when its key matches
+    (io/model_cache.py), else built (and cached by run and info when the
+    build took long enough to be worth a file)."""
+    from .io import model_cache
+    from .model import build_model
+    quiet = getattr(args, "quiet", False)
+    use = model_cache.enabled() and not getattr(args, "no_model_cache", False)
+    if use:
+        model = model_cache.load(case)
+        if model is not None:
+            if not quiet:
+                print(f"rbsm_dyn: model read from {model_cache.cache_file(case)} (built by an "
+                      "earlier run; --no-model-cache to rebuild)", file=sys.stderr, flush=True)
+            return model
+    cells = _cell_estimate(case)
+    if cells > BUILD_NOTICE_CELLS and not quiet:
+        # a build of 10⁵ cells takes tens of seconds: say what is going on
+        what = (f"{case.mesh.kind}, domain {case.domain.kind()}" if not case.parts
+                else f"{len(case.parts)} parts")
+        print(f"rbsm_dyn: building about {cells:.3g} cells ({what})...", file=sys.stderr,
+              flush=True)
+    t0 = time.perf_counter()
+    model = build_model(case)
+    took = time.perf_counter() - t0
+    if use and command in ("run", "info") and took >= model_cache.MIN_BUILD_SECONDS:
+        def note(text):
+            print(f"rbsm_dyn: {text}", file=sys.stderr)
+        path = model_cache.save(case, model, note)
+        if path is not None and not quiet:
+            print(f"rbsm_dyn: model cached in {path} ({path.stat().st_size / 2**20:.0f} MiB, "
+                  f"the build took {took:.0f} s)", file=sys.stderr)
+    return model
 
 
 def _preflight(case, model):

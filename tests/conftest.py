@@ -5,10 +5,15 @@ The test models are small (10²–10⁴ springs): there a second Numba thread
 costs more at each parallel region's barrier than it brings, so the suite
 runs on one thread unless NUMBA_NUM_THREADS is set.  The parallel path is
 tested on its own (test_dynamics.py: identical results with 1 and 2
-threads, which sets NUMBA_NUM_THREADS=2 for its runs)."""
+threads, which sets NUMBA_NUM_THREADS=2 for its runs).
+
+The model cache (io/model_cache.py) is off for the suite, so that running
+the shipped cases writes nothing into cases/; test_model_cache.py turns it
+on for its own runs."""
 import os
 
 os.environ.setdefault("NUMBA_NUM_THREADS", "1")
+os.environ.setdefault("RBSM_MODEL_CACHE", "0")
 
 import textwrap  # noqa: E402
 
