@@ -580,8 +580,8 @@ def build_model(case, mesh=None):
     sp = _spring_points_by_rule(mesh.face_vertex_ptr, mesh.face_vertex_xyz, mesh.face_normal,
                                 part_rule[np.where(body_rigid[fa], body_part[fb], body_part[fa])])
     f = sp.face
-    a = mesh.face_cells[f, 0]
-    b = mesh.face_cells[f, 1]
+    a = mesh.face_cells[f, 0].astype(IDX)
+    b = mesh.face_cells[f, 1].astype(IDX)
     nrm = mesh.face_normal[f]
     fc = mesh.face_centroid[f]
     h_a = np.einsum("ij,ij->i", fc - cen[a], nrm)
@@ -613,8 +613,8 @@ def build_model(case, mesh=None):
     # law of each internal spring: the weaker of its two cells' slots (row 1 + slot);
     # on an interface, the interface's row (bonded with a material, contact)
     sa_, sb_ = body_slot[a], body_slot[b]
-    rows = law_params[1:1 + n_slots]
-    weaker = np.where(strength_of(rows[sa_]) <= strength_of(rows[sb_]), sa_, sb_)
+    slot_strength = strength_of(law_params[1:1 + n_slots])
+    weaker = np.where(slot_strength[sa_] <= slot_strength[sb_], sa_, sb_)
     weaker = np.where(body_rigid[a], sb_, np.where(body_rigid[b], sa_, weaker))
     law = (1 + weaker).astype(IDX)
     state0 = np.where(keep, ELASTIC, BROKEN).astype(np.int8)
@@ -626,9 +626,10 @@ def build_model(case, mesh=None):
                 law[on] = iface_row[i]
             if it.law == "contact":
                 state0[on] = BROKEN
-    internal = dict(a=a, b=b, point=sp.point, normal=nrm, area=sp.weight, h=h_a + h_b,
+    internal = dict(a=a, b=b, point=sp.point, area=sp.weight, h=h_a + h_b,
                     k=np.stack([kn, ks, ks], axis=1) * sp.weight[:, None],
                     frame=_frames_from_normals(nrm), face=f.astype(IDX), law=law, state0=state0)
+    del a, b, f, sp, nrm, fc, h_a, h_b, kn, ks, law, state0, weaker, sa_, sb_
 
     # support springs on domain faces (DESIGN.md §1: h = centroid-to-face distance)
     sup = []
@@ -682,22 +683,25 @@ def build_model(case, mesh=None):
                 raise case.error(("boundary", j, "fix"), f"surface {name} is not normal to "
                                  "one axis: only fix: all is possible on it")
             frames = _frames_from_normals(nrm_b)
-        sup.append(dict(a=cell, b=np.full(len(cell), n), point=bsp.point,
-                        normal=nrm_b, area=bsp.weight, h=h, k=k * bsp.weight[:, None],
+        sup.append(dict(a=cell.astype(IDX), b=np.full(len(cell), n, dtype=IDX),
+                        point=bsp.point, area=bsp.weight, h=h, k=k * bsp.weight[:, None],
                         frame=frames, face=(-1 - bf).astype(IDX),
                         law=(1 + body_slot[cell]
                              + (0 if item.breakable else n_slots)).astype(IDX),
                         state0=np.zeros(len(cell), dtype=np.int8)))
 
     pieces = [internal] + sup
-    cat = {key: np.concatenate([p[key] for p in pieces]) for key in internal}
-    del pieces, internal, sup          # (the build's peak memory: one copy at a time)
+    del internal, sup
+    # (the build's peak memory: one array's copy at a time, each piece's
+    # array freed as soon as it is joined)
+    cat = {key: np.concatenate([p.pop(key) for p in pieces]) for key in list(pieces[0])}
+    del pieces
     # spring order of the thread-safe schedule (partition.py): by group, then (a, b)
     order, group_ptr, phase_ptr = spring_schedule(np.stack([cat["a"], cat["b"]], axis=1), n)
     for key in list(cat):
         cat[key] = cat[key][order]
     del order
-    sb = np.stack([cat["a"], cat["b"]], axis=1).astype(IDX)
+    sb = np.stack([cat.pop("a"), cat.pop("b")], axis=1).astype(IDX, copy=False)
     rot_all = np.ascontiguousarray(np.concatenate([rot0, np.eye(3)[None]]))
     arm_a = np.empty((len(sb), 3))
     arm_b = np.empty((len(sb), 3))
@@ -834,14 +838,14 @@ def build_model(case, mesh=None):
         spring_arm_b=np.ascontiguousarray(arm_b), spring_frame0=cat["frame"],
         spring_k=np.ascontiguousarray(cat["k"]), spring_n0=_frame_normals(cat["frame"]),
         spring_area=cat["area"], spring_h=cat["h"],
-        spring_face=cat["face"].astype(IDX), group_ptr=group_ptr, phase_ptr=phase_ptr,
+        spring_face=cat["face"].astype(IDX, copy=False), group_ptr=group_ptr, phase_ptr=phase_ptr,
         dof_kind=dof_kind, dof_value=dof_value, dof_hist=dof_hist,
         body_fext=fext, body_mext=mext, body_ffol=ffol, body_mfol=mfol,
         body_load_hist=load_hist, gravity=gravity,
         hist_ptr=np.asarray(hist_ptr, dtype=IDX), hist_t=np.asarray(hist_t, float),
         hist_a=np.asarray(hist_a, float), groups=groups, materials=materials, mesh=mesh,
-        n_cut=n_cut, spring_law=cat["law"].astype(IDX), law_params=law_params,
-        spring_state0=cat["state0"].astype(np.int8),
+        n_cut=n_cut, spring_law=cat["law"].astype(IDX, copy=False), law_params=law_params,
+        spring_state0=cat["state0"].astype(np.int8, copy=False),
         inelastic=bool(n_cut > 0 or np.any(cat["state0"] >= BROKEN)
                        or np.any(law_params[:, [P_CRIT, P_RUPT]] > 0)))
 

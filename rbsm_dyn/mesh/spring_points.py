@@ -104,7 +104,30 @@ def _sqrt_spd2(a, b, d):
     return (a + s) / t, b / t, (d + s) / t
 
 
+#: faces per batch of spring_points: its temporaries (~400 B per point) stay
+#: below ~50 MiB however large the mesh (each face is computed on its own,
+#: so the result does not depend on the batching)
+BATCH_FACES = 30000
+
+
 def spring_points(vertex_ptr, vertex_xyz, normal, rule="moment"):
+    """Spring points on a set of planar convex polygons (_spring_points in
+    batches of BATCH_FACES faces; see there)."""
+    vertex_ptr = np.asarray(vertex_ptr, dtype=np.int64)
+    F = len(vertex_ptr) - 1
+    if F <= BATCH_FACES:
+        return _spring_points(vertex_ptr, vertex_xyz, normal, rule)
+    parts = []
+    for f0 in range(0, F, BATCH_FACES):
+        f1 = min(F, f0 + BATCH_FACES)
+        v0, v1 = vertex_ptr[f0], vertex_ptr[f1]
+        sp = _spring_points(vertex_ptr[f0:f1 + 1] - v0, vertex_xyz[v0:v1], normal[f0:f1], rule)
+        parts.append(SpringPoints(sp.point, sp.weight, sp.face + f0))
+    return SpringPoints(*(np.concatenate([getattr(p, k) for p in parts])
+                          for k in SpringPoints._fields))
+
+
+def _spring_points(vertex_ptr, vertex_xyz, normal, rule="moment"):
     """Spring points on a set of planar convex polygons.
 
     Parameters

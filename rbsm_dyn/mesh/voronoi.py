@@ -197,17 +197,22 @@ def voronoi_mesh(box, size, seed=0, min_spacing=0.5, *, seeds=None) -> Mesh:
         out = _tessellate(seeds, box, size, reach)
         if out is None:
             continue
-        mesh = _build(box, size, seeds, *out)
+        mesh = _build(box, size, seeds, list(out))
+        del out
         if abs(mesh.cell_volume.sum() - box_volume) <= 1e-9 * box_volume and np.all(mesh.cell_volume > 0):
             return mesh
     raise RuntimeError("Voronoi tessellation failed to tile the box")
 
 
-def _build(box, size, seeds, V, vid, rid, cnt, kp, kq, kside, bnormal=None):
-    """Mesh from qhull's ridges (kp, kq: seed ids, kside: the box side of a
-    boundary ridge or −1; ``bnormal`` (R, 3): outward normals of the boundary
-    ridges when they are not box sides, voronoi_cells)."""
+def _build(box, size, seeds, data, bnormal=None):
+    """Mesh from qhull's ridges, data = [V, vid, rid, cnt, kp, kq, kside]
+    (kp, kq: seed ids, kside: the box side of a boundary ridge or −1;
+    emptied here, so that its arrays are freed as soon as they are used:
+    the build's peak memory); ``bnormal`` (R, 3): outward normals of the
+    boundary ridges when they are not box sides, voronoi_cells."""
     N = len(seeds)
+    V, vid, rid, cnt, kp, kq, kside = data
+    data.clear()
 
     # merge Voronoi vertices closer than tol (near-degenerate seed sets)
     tol = 1e-10 * size
@@ -226,6 +231,7 @@ def _build(box, size, seeds, V, vid, rid, cnt, kp, kq, kside, bnormal=None):
         inv = rep[lab][inv]
     vid = inv
     xyz = Vu
+    del V, used, inv, Vu
 
     # unique (ridge, vertex) pairs, ordered by angle about the ridge normal
     R = len(kp)
@@ -271,12 +277,12 @@ def _build(box, size, seeds, V, vid, rid, cnt, kp, kq, kside, bnormal=None):
     bi = np.flatnonzero(isb)
     f_ptr, f_vid = _gather(ptr, vid, fi)
     b_ptr, b_vid = _gather(ptr, vid, bi)
-    return assemble(
-        box, xyz,
-        np.stack([kp[fi], kq[fi]], axis=1), f_ptr, f_vid, normal[fi],
-        kp[bi], kside[bi], b_ptr, b_vid,
-        n_cells=N, ref=seeds, b_normal=None if bnormal is None else normal[bi],
-    )
+    f_cells, b_cell, b_side = np.stack([kp[fi], kq[fi]], axis=1), kp[bi], kside[bi]
+    f_normal, b_normal = normal[fi], None if bnormal is None else normal[bi]
+    del key, rid, vid, ptr, normal, rel, ang, o, e1, e2, m, cnt, area, sel, sp, sv, ok, isb
+    del kp, kq, kside, fi, bi, bnormal, d, pairs
+    return assemble(box, xyz, f_cells, f_ptr, f_vid, f_normal, b_cell, b_side, b_ptr, b_vid,
+                    n_cells=N, ref=seeds, b_normal=b_normal)
 
 
 def voronoi_cells(seeds, size, box) -> Mesh:
@@ -314,5 +320,6 @@ def voronoi_cells(seeds, size, box) -> Mesh:
     bn = pts[kq] - seeds[kp]
     bn /= np.linalg.norm(bn, axis=1)[:, None]
     big = np.array([c - 4.0 * d, c + 4.0 * d])
-    return _build(big, size, seeds, np.array(vor.vertices, dtype=np.float64), vid, rid, cnt,
-                  kp, kq, kside, bnormal=bn)
+    data = [np.array(vor.vertices, dtype=np.float64), vid, rid, cnt, kp, kq, kside]
+    del vor, rv, sub, rp, p, q, keep, vid, rid, cnt, kp, kq, kside
+    return _build(big, size, seeds, data, bnormal=bn)
