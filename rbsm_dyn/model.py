@@ -40,10 +40,11 @@ class Model:
       spring_bodies (S, 2) int32 (a, b), b == N for a support (ground);
       spring_arm_a, spring_arm_b (S, 3) [m] arms in the principal frames
       (the ground's frame is the world frame); spring_frame0 (S, 4) quaternion
-      of the reference frame (n, s, t) with n from a to b; spring_n0 (S, 3)
-      its n (world, reference); spring_k (S, 3) [N/m] = (k_n, k_s, k_t) × area;
-      spring_point, spring_normal (S, 3): computed when asked (output,
-      export), not held: the rest position (on body a) and spring_n0;
+      of the reference frame (n, s, t) with n from a to b (the points of one
+      face share it); spring_k (S, 3) [N/m] = (k_n, k_s, k_t) × area;
+      spring_point, spring_normal (= spring_n0) (S, 3): computed when asked
+      (output, export), not held: the rest position (on body a) and the
+      frame's n;
       spring_area, spring_h (S,) [m², m]; spring_face (S,) int32 (internal
       face id, or −1 − boundary face id for supports).
     Spring laws (physics/laws/): spring_law (S,) int32 row of law_params
@@ -83,7 +84,6 @@ class Model:
     spring_arm_b: np.ndarray
     spring_frame0: np.ndarray
     spring_k: np.ndarray
-    spring_n0: np.ndarray
     spring_area: np.ndarray
     spring_h: np.ndarray
     spring_face: np.ndarray
@@ -119,8 +119,12 @@ class Model:
 
     @property
     def spring_normal(self):
-        """(S, 3) unit normal of each spring point at rest (world): spring_n0."""
-        return self.spring_n0
+        """(S, 3) unit normal of each spring point at rest (world): the
+        first column of its frame.  Computed, not held (the kernels turn
+        each face's frame once)."""
+        return _frame_normals(self.spring_frame0)
+
+    spring_n0 = spring_normal
 
     @property
     def spring_point(self):
@@ -836,7 +840,7 @@ def build_model(case, mesh=None):
         body_material=body_material, body_pos0=pos0, body_quat0=quat0,
         spring_bodies=sb, spring_arm_a=np.ascontiguousarray(arm_a),
         spring_arm_b=np.ascontiguousarray(arm_b), spring_frame0=cat["frame"],
-        spring_k=np.ascontiguousarray(cat["k"]), spring_n0=_frame_normals(cat["frame"]),
+        spring_k=np.ascontiguousarray(cat["k"]),
         spring_area=cat["area"], spring_h=cat["h"],
         spring_face=cat["face"].astype(IDX, copy=False), group_ptr=group_ptr, phase_ptr=phase_ptr,
         dof_kind=dof_kind, dof_value=dof_value, dof_hist=dof_hist,

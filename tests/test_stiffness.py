@@ -102,7 +102,7 @@ def kernel_body_forces(model, U):
     out = np.zeros((n + 1, 6))
     elastic_spring_pass(model.phase_ptr, model.group_ptr, model.spring_bodies,
                         model.spring_arm_a, model.spring_arm_b, model.spring_frame0,
-                        model.spring_n0, model.spring_k, pos, rot, dq, out, np.zeros((n + 1, 3)),
+                        model.spring_face, model.spring_k, pos, rot, dq, out, np.zeros((n + 1, 3)),
                         True, f)
     return out[:n], f
 
@@ -133,7 +133,7 @@ def test_one_spring_between_two_blocks_matches_the_hand_formula():
     one = dataclasses.replace(model, **{
         k: getattr(model, k)[s:s + 1] for k in
         ("spring_bodies", "spring_arm_a", "spring_arm_b", "spring_frame0", "spring_k",
-         "spring_n0", "spring_area", "spring_h", "spring_face")})
+         "spring_area", "spring_h", "spring_face")})
     A = model.spring_area[s]
     h = 1.0                                                  # centroid distance
     kn, ks = E * A / h, 0.5 * E * A / h                      # Kawai 1978 eq. 13 × area

@@ -280,7 +280,7 @@ def dynamic_body_pass(t, dt, body_wrench, body_support,
 
 @nb.njit(**JIT)
 def run_dynamic(n_steps, step0, dt, inelastic,
-                spring_bodies, spring_arm_a, spring_arm_b, spring_frame0, spring_n0, spring_k,
+                spring_bodies, spring_arm_a, spring_arm_b, spring_frame0, spring_face, spring_k,
                 spring_area, spring_h, spring_law, law_params,
                 spring_state, spring_dp, spring_kappa, spring_dmg, spring_wp, spring_wf,
                 phase_ptr, group_ptr, body_wrench, body_support, spring_force,
@@ -309,7 +309,7 @@ def run_dynamic(n_steps, step0, dt, inelastic,
                                   spring_force, True)
         else:
             elastic_spring_pass(phase_ptr, group_ptr, spring_bodies, spring_arm_a,
-                                spring_arm_b, spring_frame0, spring_n0, spring_k, body_pos,
+                                spring_arm_b, spring_frame0, spring_face, spring_k, body_pos,
                                 body_rot, body_dq, body_wrench, body_support, False, spring_force)
         if poisson_on:
             poisson_pass(inelastic, cell_slot_ptr, slot_cell, slot_rev, slot_g, cell_c0,

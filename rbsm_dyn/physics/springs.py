@@ -208,21 +208,21 @@ def clear_part(p, parts, body_wrench, body_support):
 
 @nb.njit(inline="always", **JIT)
 def _elastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
-                   spring_frame0, spring_n0, spring_k, body_pos, body_rot, body_dq, body_wrench,
+                   spring_frame0, spring_face, spring_k, body_pos, body_rot, body_dq, body_wrench,
                    body_support, store, spring_force):
     """The springs of group g, in order (partition.py).
 
-    The spring points of one face follow each other (same a, b and normal):
-    their mid rotation and turned normal are computed once per face."""
+    The spring points of one face follow each other (same face id, hence
+    the same a, b and frame): their mid rotation and turned normal are
+    computed once per face; the rest normal n0 is the first column of the
+    face's frame R(q0) (held by no array: 24 B per spring point less)."""
     s0 = group_ptr[g]
     s1 = group_ptr[g + 1]
     if s1 == s0:
         return
     cur = np.uint64(spring_bodies[s0, 0])
     w0 = w1 = w2 = w3 = w4 = w5 = 0.0
-    # the face whose q, N are held (none yet: an impossible normal)
-    fa = fb = np.uint64(0)
-    e0 = e1 = e2 = np.nan
+    held = np.int64(spring_face[s0]) + 1    # the face whose q, N are held: not the first
     q0 = q1 = q2 = q3 = n2 = inv = N0 = N1 = N2 = 0.0
     for s in range(np.uint64(s0), np.uint64(s1)):
         # body ids are never negative: unsigned skips Numba's wraparound code
@@ -230,11 +230,13 @@ def _elastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
         b = np.uint64(spring_bodies[s, 1])
         d0, d1, d2, la0, la1, la2, lb0, lb1, lb2 = material_points(
             s, a, b, spring_arm_a, spring_arm_b, body_pos, body_rot)
-        if (a != fa or b != fb or spring_n0[s, 0] != e0 or spring_n0[s, 1] != e1
-                or spring_n0[s, 2] != e2):
-            fa = a
-            fb = b
-            e0, e1, e2 = spring_n0[s, 0], spring_n0[s, 1], spring_n0[s, 2]
+        if np.int64(spring_face[s]) != held:
+            held = np.int64(spring_face[s])
+            fr = spring_frame0[s]
+            # n0 = R(q0) e1 (quaternion q0 = (w, x, y, z) of the frame)
+            e0 = 1.0 - 2.0 * (fr[2] * fr[2] + fr[3] * fr[3])
+            e1 = 2.0 * (fr[1] * fr[2] + fr[0] * fr[3])
+            e2 = 2.0 * (fr[1] * fr[3] - fr[0] * fr[2])
             q0, q1, q2, q3, n2 = mid_increment(a, b, body_dq)
             # n2·n = R(q) n0 by the homogeneous rotation formula of the
             # unnormalised q: (q0² − |v|²) n0 + 2 (v·n0) v + 2 q0 (v × n0)
@@ -278,32 +280,32 @@ def _elastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
 
 @nb.njit(parallel=True, **JIT)
 def _elastic_phase(lo, hi, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
-                   spring_frame0, spring_n0, spring_k, body_pos, body_rot, body_dq, body_wrench,
+                   spring_frame0, spring_face, spring_k, body_pos, body_rot, body_dq, body_wrench,
                    body_support, store, spring_force, parts):
     for g in nb.prange(lo, hi):
         if g < parts:
             clear_part(g, parts, body_wrench, body_support)
         _elastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spring_frame0,
-                       spring_n0, spring_k, body_pos, body_rot, body_dq, body_wrench, body_support,
+                       spring_face, spring_k, body_pos, body_rot, body_dq, body_wrench, body_support,
                        store, spring_force)
 
 
 @nb.njit(**JIT)
 def _elastic_phase_serial(lo, hi, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
-                          spring_frame0, spring_n0, spring_k, body_pos, body_rot, body_dq,
+                          spring_frame0, spring_face, spring_k, body_pos, body_rot, body_dq,
                           body_wrench,
                           body_support, store, spring_force, parts):
     for g in range(lo, hi):
         if g < parts:
             clear_part(g, parts, body_wrench, body_support)
         _elastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spring_frame0,
-                       spring_n0, spring_k, body_pos, body_rot, body_dq, body_wrench, body_support,
+                       spring_face, spring_k, body_pos, body_rot, body_dq, body_wrench, body_support,
                        store, spring_force)
 
 
 @nb.njit(**JIT)
 def elastic_spring_pass(phase_ptr, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
-                        spring_frame0, spring_n0, spring_k, body_pos, body_rot, body_dq,
+                        spring_frame0, spring_face, spring_k, body_pos, body_rot, body_dq,
                         body_wrench, body_support, store, spring_force):
     """Linear-elastic springs: force on body a, f = F diag(k) Fᵀ d [N]
     (Kawai 1978, eq. 13 form) with the spring frame F turned by the mid
@@ -313,13 +315,13 @@ def elastic_spring_pass(phase_ptr, group_ptr, spring_bodies, spring_arm_a, sprin
     parts = phase_ptr[1]
     if serial_pass(spring_bodies.shape[0]):
         _elastic_phase_serial(0, phase_ptr[phase_ptr.shape[0] - 1], group_ptr, spring_bodies,
-                              spring_arm_a, spring_arm_b, spring_frame0, spring_n0, spring_k,
+                              spring_arm_a, spring_arm_b, spring_frame0, spring_face, spring_k,
                               body_pos, body_rot, body_dq, body_wrench, body_support, store,
                               spring_force, parts)
         return
     for ph in range(phase_ptr.shape[0] - 1):
         _elastic_phase(phase_ptr[ph], phase_ptr[ph + 1], group_ptr, spring_bodies,
-                       spring_arm_a, spring_arm_b, spring_frame0, spring_n0, spring_k, body_pos,
+                       spring_arm_a, spring_arm_b, spring_frame0, spring_face, spring_k, body_pos,
                        body_rot, body_dq, body_wrench, body_support, store, spring_force, parts)
 
 

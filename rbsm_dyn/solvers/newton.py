@@ -144,7 +144,7 @@ class Newton:
             sstate, dmg = arrs[0], arrs[3]
         else:
             elastic_spring_pass(m.phase_ptr, m.group_ptr, m.spring_bodies, m.spring_arm_a,
-                                m.spring_arm_b, m.spring_frame0, m.spring_n0, m.spring_k,
+                                m.spring_arm_b, m.spring_frame0, m.spring_face, m.spring_k,
                                 state.body_pos, state.body_rot, state.body_dq,
                                 state.body_wrench, state.body_support, True,
                                 state.spring_force)
