@@ -14,8 +14,9 @@ Seeds
     space are close in memory (cache locality of the kernels).
 
 Clipping
-    The seeds are mirrored across the box sides and ``scipy.spatial.Voronoi``
-    runs on seeds + mirrors.  A point of the box is never strictly closer to
+    The seeds are mirrored across the box sides and the Voronoi diagram of
+    seeds + mirrors is taken (as the dual of qhull's Delaunay
+    triangulation, mesh/dual.py).  A point of the box is never strictly closer to
     a mirror than to its original, and a point outside side k is closer to
     the mirror across k than to the original, so the Voronoi cell of an
     original seed is exactly its Voronoi cell among the seeds clipped to the
@@ -39,6 +40,7 @@ from __future__ import annotations
 import numpy as np
 
 from ._core import Mesh, _gather, assemble, check_box
+from .dual import voronoi_ridges
 from .spring_points import polygon_properties
 
 __all__ = ["voronoi_mesh", "voronoi_seeds"]
@@ -126,22 +128,17 @@ def _tessellate(seeds, box, size, reach):
     pts = np.vstack(pts)
     src = np.concatenate(src)
     side = np.concatenate(side)
-    # Qbb Qc Qz is scipy's default; tiny problems need no special options
-    from scipy.spatial import Voronoi  # imported here: block meshes never pay for it
-    vor = Voronoi(pts)
-    rp = vor.ridge_points.astype(np.int64)
-    p, q = rp.min(axis=1), rp.max(axis=1)
+    V, rp, rptr, rvid = voronoi_ridges(pts, n_keep=N)     # (mesh/dual.py)
+    p, q = rp[:, 0], rp[:, 1]
     internal = q < N
     bnd = (p < N) & (q >= N) & (src[q] == p)
     keep = np.flatnonzero(internal | bnd)
-    rv = vor.ridge_vertices
-    sub = [rv[i] for i in keep]
-    cnt = np.fromiter((len(s) for s in sub), dtype=np.int64, count=len(sub))
-    vid = np.fromiter((v for s in sub for v in s), dtype=np.int64, count=int(cnt.sum()))
+    rptr, vid = _gather(rptr, rvid, keep)
+    del rvid, rp
     if np.any(vid < 0):
         return None  # an unbounded cell: a needed mirror is missing
+    cnt = np.diff(rptr)
     rid = np.repeat(np.arange(len(keep)), cnt)
-    V = np.array(vor.vertices, dtype=np.float64)
     kp, kq = p[keep], q[keep]
     kside = np.where(kq < N, -1, side[kq])
     # vertices of a boundary face lie on its side plane: put them there
@@ -303,23 +300,16 @@ def voronoi_cells(seeds, size, box) -> Mesh:
     g = g[np.any(g != 0, axis=1)].astype(np.float64)
     frame = c + 4.0 * d * g / np.linalg.norm(g, axis=1)[:, None]
     pts = np.vstack([seeds, frame])
-    from scipy.spatial import Voronoi
-    vor = Voronoi(pts)
-    rp = vor.ridge_points.astype(np.int64)
-    p, q = rp.min(axis=1), rp.max(axis=1)
-    keep = np.flatnonzero(p < N)
-    rv = vor.ridge_vertices
-    sub = [rv[i] for i in keep]
-    cnt = np.fromiter((len(x) for x in sub), dtype=np.int64, count=len(sub))
-    vid = np.fromiter((v for x in sub for v in x), dtype=np.int64, count=int(cnt.sum()))
+    V, rp, rptr, vid = voronoi_ridges(pts, n_keep=N)      # (mesh/dual.py)
     if np.any(vid < 0):
         raise RuntimeError("a Voronoi cell is not closed by the frame points")
-    rid = np.repeat(np.arange(len(keep)), cnt)
-    kp, kq = p[keep], q[keep]
+    cnt = np.diff(rptr)
+    rid = np.repeat(np.arange(len(rp)), cnt)
+    kp, kq = rp[:, 0], rp[:, 1]
     kside = np.where(kq < N, -1, 0)
     bn = pts[kq] - seeds[kp]
     bn /= np.linalg.norm(bn, axis=1)[:, None]
     big = np.array([c - 4.0 * d, c + 4.0 * d])
-    data = [np.array(vor.vertices, dtype=np.float64), vid, rid, cnt, kp, kq, kside]
-    del vor, rv, sub, rp, p, q, keep, vid, rid, cnt, kp, kq, kside
+    data = [V, vid, rid, cnt, kp, kq, kside]
+    del V, rp, rptr, vid, rid, cnt, kp, kq, kside
     return _build(big, size, seeds, data, bnormal=bn)
