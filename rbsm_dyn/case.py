@@ -237,11 +237,14 @@ class Part(_Node):
 class Interface(_Node):
     """How two touching parts are joined over their shared faces:
     ``law: bonded`` (springs with the law of ``material``, default the
-    weaker of the two parts' laws) or ``law: contact`` (compression only,
-    Coulomb ``friction`` μ, default 0: the law of a broken face)."""
+    weaker of the two parts' laws; with ``thickness`` t the material's
+    layer adds its compliance t/E in series) or ``law: contact``
+    (compression only, Coulomb ``friction`` μ, default 0: the law of a
+    broken face)."""
     parts: Annotated[list[str], _length(2, "[part_a, part_b]")]
     law: Literal["bonded", "contact"]
     material: Optional[str] = None
+    thickness: Optional[float] = Field(default=None, gt=0)
     friction: Optional[float] = Field(default=None, ge=0)
 
 
@@ -602,6 +605,7 @@ DIMENSIONS: dict[tuple[type, str], str] = {
     (Domain, "scale"): "geometry_scale",
     (Domain, "surfaces"): "geometry",
     (Mesh, "size"): "length",
+    (Interface, "thickness"): "length",
     (Material, "density"): "density",
     (Material, "young"): "stress",
     (Yield, "stress"): "stress",
@@ -1269,8 +1273,11 @@ def _check(case: Case) -> None:
             if it.material is not None and it.material not in case.materials:
                 raise err(path + ("material",), f"unknown material {it.material!r} "
                           f"(defined: {', '.join(case.materials)})")
+            if it.thickness is not None and it.material is None:
+                raise err(path + ("thickness",), "is the thickness of a layer of the "
+                          "interface's material: give material too")
         else:
-            check_only(it, ["material"], path, "with law contact (give friction)")
+            check_only(it, ["material", "thickness"], path, "with law contact (give friction)")
 
     if not case.materials:
         raise err(("materials",), "at least one material is required")

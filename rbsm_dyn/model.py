@@ -604,6 +604,21 @@ def build_model(case, mesh=None):
     # half-lengths in series (Kawai 1978: h = h1 + h2)
     kn = 1.0 / (h_a / e0[a] + h_b / e0[b])
     ks = 1.0 / (h_a / (alpha[a] * e0[a]) + h_b / (alpha[b] * e0[b]))
+    if mesh.face_interface is not None:
+        # a bonded interface's layer of thickness t of its own material:
+        # one more compliance in series, t/E' (normal) and t/(α E') (shear),
+        # with the material's E', α of the mesh kind (calibration.py)
+        fi = mesh.face_interface[f]
+        for i, it in enumerate(case.interfaces):
+            if it.thickness is None:
+                continue
+            on = fi == i
+            ref = next(p for p in parts if p.name in it.parts and p.mesh.kind != "rigid")
+            mat = case.materials[it.material]
+            e0m, alpham, _ = stiffness_rule(mat.stiffness, ref.mesh.kind, mat.young, mat.poisson)
+            kn[on] = 1.0 / (h_a[on] / e0[a[on]] + h_b[on] / e0[b[on]] + it.thickness / e0m)
+            ka, kb = alpha[a[on]] * e0[a[on]], alpha[b[on]] * e0[b[on]]
+            ks[on] = 1.0 / (h_a[on] / ka + h_b[on] / kb + it.thickness / (alpham * e0m))
     keep = np.ones(len(f), dtype=bool)
     for j, cut in enumerate(case.cuts or []):
         p = np.asarray(cut.point, float)

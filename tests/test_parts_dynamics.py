@@ -323,6 +323,21 @@ def test_bonded_joint_breaks_at_its_own_materials_strength(run_case):
     assert h.observables["fracture"][-1] == pytest.approx(GF_M * A_JOINT, rel=1e-2)
 
 
+def test_a_bonded_layer_of_given_thickness_adds_its_compliance(run_case):
+    """The same bar with the mortar as a layer of thickness t = 10 mm
+    (`thickness`): springs in series, 1/K = L_eff/(E A) + t/(E_m A)
+    (ν = 0: a block spring's modulus is E, docs/calibration.md), exact for
+    blocks up to Newton's tolerance (1e-6); an elastic step (u = u_p/2)."""
+    t = 0.01
+    u_p = FT_M * L_EFF / E
+    text = (JOINT.replace("U", repr(0.5 * u_p)).replace("load_steps: 24", "load_steps: 1")
+            .replace("material: mortar}", f"material: mortar, thickness: {t}}}"))
+    R = -run_case(text).observables["R"]
+    K = 1.0 / (L_EFF / (E * A_JOINT) + t / (E_M * A_JOINT))
+    assert R[-1] == pytest.approx(K * 0.5 * u_p, rel=1e-6)
+    # (without the layer the bar is E A / L_eff: 1.27 times stiffer here)
+
+
 # ---------------------------------------------- check and info name parts ---
 
 SCENE = """\
