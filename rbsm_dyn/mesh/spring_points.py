@@ -201,12 +201,13 @@ def _spring_points(vertex_ptr, vertex_xyz, normal, rule="moment"):
     r11, r12, r22 = _sqrt_spd2(J11, J12, J22)
     q11, q12, q22 = _sqrt_spd2(P11, P12, P22)
     qdet = q11 * q22 - q12 * q12
-    with np.errstate(invalid="ignore", divide="ignore"):
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        # (a singular Jp gives inf/NaN here: such faces are `bad` below)
         i11, i12, i22 = q22 / qdet, -q12 / qdet, q11 / qdet
-    T11 = r11 * i11 + r12 * i12
-    T12 = r11 * i12 + r12 * i22
-    T21 = r12 * i11 + r22 * i12
-    T22 = r12 * i12 + r22 * i22
+        T11 = r11 * i11 + r12 * i12
+        T12 = r11 * i12 + r12 * i22
+        T21 = r12 * i11 + r22 * i12
+        T22 = r12 * i12 + r22 * i22
     trJ, trP = J11 + J22, P11 + P22
     detJ, detP = J11 * J22 - J12 * J12, P11 * P22 - P12 * P12
     bad = ~(
