@@ -89,7 +89,7 @@ def split_passes(model, state, n_steps):
     for k in range(n_steps):
         t0 = time.perf_counter()
         elastic_spring_pass(m.phase_ptr, m.group_ptr, m.spring_bodies, m.spring_arm_a,
-                            m.spring_arm_b, m.spring_frame0, m.spring_face, m.spring_k, s.body_pos,
+                            m.spring_arm_b, m.spring_slot, m.face_frame0, m.face_k, m.spring_area, s.body_pos,
                             s.body_rot,
                             s.body_dq, s.body_wrench, s.body_support, False, s.spring_force)
         t1 = time.perf_counter()

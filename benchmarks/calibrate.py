@@ -57,11 +57,11 @@ def case_for(kind, cells, seed, young=E_REF, poisson=0.0, rule="calibrated"):
 
 def split_stiffness(model):
     """K_n and K_s per unit E0 and α: K(E0, α) = E0 (K_n + α K_s), from a
-    single-material model (spring_k = E0 (A/h) (1, α, α))."""
+    single-material model (face_k = E0 (1/h) (1, α, α))."""
     mat = model.materials[0]
-    k = model.spring_k / mat["e0"]
-    kn = stiffness_matrix(dataclasses.replace(model, spring_k=k * [1.0, 0.0, 0.0]))
-    ks = stiffness_matrix(dataclasses.replace(model, spring_k=k * [0.0, 1.0, 1.0] / mat["alpha"]))
+    k = model.face_k / mat["e0"]
+    kn = stiffness_matrix(dataclasses.replace(model, face_k=k * [1.0, 0.0, 0.0]))
+    ks = stiffness_matrix(dataclasses.replace(model, face_k=k * [0.0, 1.0, 1.0] / mat["alpha"]))
     return kn, ks
 
 
@@ -112,7 +112,7 @@ def aux_sweep(args):
                                      rule="homogeneous"))
         aux = model.poisson
         k1 = stiffness_matrix(dataclasses.replace(
-            model, spring_k=model.spring_k / model.materials[0]["e0"], poisson=None))
+            model, face_k=model.face_k / model.materials[0]["e0"], poisson=None))
         kaux = poisson_stiffness(aux._replace(cell_lv=model.body_volume.copy()),
                                  model.n_bodies)
         for b in betas:

@@ -101,12 +101,12 @@ def build(text):
 
 def strain_energy(m, st):
     d = np.zeros((m.n_springs, 3))
-    spring_local_gap(m.spring_bodies, m.spring_arm_a, m.spring_arm_b, m.spring_frame0,
+    spring_local_gap(m.spring_bodies, m.spring_arm_a, m.spring_arm_b, m.spring_slot, m.face_frame0,
                      st.body_pos, st.body_rot, st.body_dq, d)
     if m.inelastic:
         return inelastic_strain_energy(m.spring_k, d, st.spring_state, st.spring_dp,
                                        st.spring_dmg)
-    return elastic_energy(m.spring_k, d)
+    return elastic_energy(m.spring_slot, m.face_k, m.spring_area, d)
 
 
 def energies(m, st):
@@ -409,15 +409,15 @@ def contact_states(m):
     z) after rupture: contact.py applies k_s to both tangential gaps, so the
     released z direction gets stiffness k_s."""
     out = {}
-    internal = ~m.is_support
-    k = m.spring_k
+    internal = m.face_ref >= 0          # (per face: the points of a face share k)
+    k = m.face_k
     stick = k.copy()
     stick[internal, 1:] = k[internal, 1][:, None]
     slide = k.copy()
     slide[internal, 1:] = 0.0
     for name, kk in (("intact", k), ("all internal springs closed contact, sticking", stick),
                      ("all internal springs closed contact, sliding", slide)):
-        mm = dataclasses.replace(m, spring_k=kk)
+        mm = dataclasses.replace(m, face_k=kk)
         out[name] = (modal.omega_max(mm), mm.stable_dt())
     return out
 
@@ -426,13 +426,13 @@ def roller_support_rows():
     text = beam_case(BEAM, "{kind: blocks, divisions: [8, 2, 2]}",
                      material=RUPTURE_MATERIAL).replace("fix: all", "fix: [x, y]")
     _, m = build(text)
-    sup = m.is_support
-    kk = m.spring_k.copy()
+    sup = m.face_ref < 0
+    kk = m.face_k.copy()
     kk[sup, 2] = kk[sup, 1]          # contact.py: τt = k_s (δt − slip_t)
     rows = {}
-    for name, k in (("roller support (xmin, fix [x, y]) intact", m.spring_k),
+    for name, k in (("roller support (xmin, fix [x, y]) intact", m.face_k),
                     ("same support broken, closed, sticking (contact uses k_s for t)", kk)):
-        mm = dataclasses.replace(m, spring_k=k)
+        mm = dataclasses.replace(m, face_k=k)
         rows[name] = (modal.omega_max(mm), m.stable_dt())
     # the force it makes: the support of one cell pressed in x and moved along
     # z (a DOF the support leaves free)
@@ -514,7 +514,7 @@ def flip_diagnosis(n_steps=1300, jump=5e-3):
     d = np.zeros((m.n_springs, 3))
 
     def local_gap():
-        spring_local_gap(m.spring_bodies, m.spring_arm_a, m.spring_arm_b, m.spring_frame0,
+        spring_local_gap(m.spring_bodies, m.spring_arm_a, m.spring_arm_b, m.spring_slot, m.face_frame0,
                          st.body_pos, st.body_rot, st.body_dq, d)
         return d.copy()
 

@@ -142,10 +142,14 @@ def run(bodies, steps, threads, physics, repeat=3, out=print, poisson=0.2):
     return rows
 
 
+FACE_TABLE = ("face_frame0", "face_k", "face_h", "face_law", "face_ref")
+
+
 def footprint(model, state):
     """(bytes per body, bytes per spring point, other bytes) of the NumPy
     arrays of a model and its state, by their first dimension (bodies, the
-    ground slot included, or spring points)."""
+    ground slot included, or spring points; the face table, shared by the
+    points of a face, counts with the spring points)."""
     nb_, ns_ = model.n_bodies, model.n_springs
     per = {"body": 0, "spring": 0, "other": 0}
     seen = set()
@@ -157,7 +161,8 @@ def footprint(model, state):
                     continue
                 seen.add(id(a))
                 n0 = a.shape[0] if a.ndim else 0
-                kind = ("spring" if n0 in (ns_, ns_ + 1) and ns_ > nb_ + 1 else
+                face = any(a is getattr(model, k) for k in FACE_TABLE)
+                kind = ("spring" if face or (n0 in (ns_, ns_ + 1) and ns_ > nb_ + 1) else
                         "body" if n0 in (nb_, nb_ + 1) else "other")
                 per[kind] += a.nbytes
     return per["body"] / nb_, per["spring"] / ns_, per["other"]

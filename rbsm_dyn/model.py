@@ -39,15 +39,21 @@ class Model:
     Springs:
       spring_bodies (S, 2) int32 (a, b), b == N for a support (ground);
       spring_arm_a, spring_arm_b (S, 3) [m] arms in the principal frames
-      (the ground's frame is the world frame); spring_frame0 (S, 4) quaternion
-      of the reference frame (n, s, t) with n from a to b (the points of one
-      face share it); spring_k (S, 3) [N/m] = (k_n, k_s, k_t) × area;
-      spring_point, spring_normal (= spring_n0) (S, 3): computed when asked
-      (output, export), not held: the rest position (on body a) and the
-      frame's n;
-      spring_area, spring_h (S,) [m², m]; spring_face (S,) int32 (internal
-      face id, or −1 − boundary face id for supports).
-    Spring laws (physics/laws/): spring_law (S,) int32 row of law_params
+      (the ground's frame is the world frame); spring_area (S,) [m²];
+      spring_slot (S,) int32: the row of the spring's face in the face table.
+    Face table (F rows, one per face that carries spring points, in spring
+    order: what the points of one face share, held once):
+      face_frame0 (F, 4) quaternion of the reference frame (n, s, t) with n
+      from a to b; face_k (F, 3) [N/m³] stiffness per area (k_n, k_s, k_t);
+      face_h (F,) [m] spring length; face_law (F,) int32 row of law_params;
+      face_ref (F,) int32 internal face id, or −1 − boundary face id for
+      supports.
+    Per spring point, computed when asked (output, export, assembly; the
+    kernels read the face table): spring_frame0 (S, 4), spring_k (S, 3)
+      [N/m] = face_k × area, spring_h, spring_law, spring_face (S,),
+      spring_point, spring_normal (= spring_n0) (S, 3): the rest position
+      (on body a) and the frame's n.
+    Spring laws (physics/laws/): face_law (spring_law) rows of law_params
       (n_laws, N_PARAMS) [Pa, 1, J/m²]; row 0 is purely elastic, row 1 + k
       is law slot k (a (material, part) pair in use: the fracture
       calibration depends on the part's mesh kind and cell size), row
@@ -82,11 +88,13 @@ class Model:
     spring_bodies: np.ndarray
     spring_arm_a: np.ndarray
     spring_arm_b: np.ndarray
-    spring_frame0: np.ndarray
-    spring_k: np.ndarray
+    spring_slot: np.ndarray
     spring_area: np.ndarray
-    spring_h: np.ndarray
-    spring_face: np.ndarray
+    face_frame0: np.ndarray
+    face_k: np.ndarray
+    face_h: np.ndarray
+    face_law: np.ndarray
+    face_ref: np.ndarray
     group_ptr: np.ndarray
     phase_ptr: np.ndarray
     dof_kind: np.ndarray
@@ -105,7 +113,6 @@ class Model:
     materials: list
     mesh: object = field(repr=False)
     n_cut: int = 0
-    spring_law: np.ndarray = None
     law_params: np.ndarray = None
     spring_state0: np.ndarray = None
     inelastic: bool = False
@@ -116,6 +123,32 @@ class Model:
     def poisson_on(self):
         """True when the auxiliary-stress pass runs (physics/poisson.py)."""
         return self.poisson is not None and len(self.poisson.slot_cell) > 0
+
+    @property
+    def spring_frame0(self):
+        """(S, 4) reference frame quaternion of each spring point (its face's)."""
+        return self.face_frame0[self.spring_slot]
+
+    @property
+    def spring_k(self):
+        """(S, 3) [N/m] stiffness of each spring point: its face's per area × its area."""
+        return self.face_k[self.spring_slot] * self.spring_area[:, None]
+
+    @property
+    def spring_h(self):
+        """(S,) [m] length of each spring point (its face's)."""
+        return self.face_h[self.spring_slot]
+
+    @property
+    def spring_law(self):
+        """(S,) int32 law_params row of each spring point (its face's)."""
+        return self.face_law[self.spring_slot]
+
+    @property
+    def spring_face(self):
+        """(S,) int32 face of each spring point: internal face id, or −1 −
+        boundary face id for a support."""
+        return self.face_ref[self.spring_slot]
 
     @property
     def spring_normal(self):
@@ -646,7 +679,7 @@ def build_model(case, mesh=None):
             if it.law == "contact":
                 state0[on] = BROKEN
     internal = dict(a=a, b=b, point=sp.point, area=sp.weight, h=h_a + h_b,
-                    k=np.stack([kn, ks, ks], axis=1) * sp.weight[:, None],
+                    kpa=np.stack([kn, ks, ks], axis=1),
                     frame=_frames_from_normals(nrm), face=f.astype(IDX), law=law, state0=state0)
     del a, b, f, sp, nrm, fc, h_a, h_b, kn, ks, law, state0, weaker, sa_, sb_
 
@@ -703,7 +736,7 @@ def build_model(case, mesh=None):
                                  "one axis: only fix: all is possible on it")
             frames = _frames_from_normals(nrm_b)
         sup.append(dict(a=cell.astype(IDX), b=np.full(len(cell), n, dtype=IDX),
-                        point=bsp.point, area=bsp.weight, h=h, k=k * bsp.weight[:, None],
+                        point=bsp.point, area=bsp.weight, h=h, kpa=k,
                         frame=frames, face=(-1 - bf).astype(IDX),
                         law=(1 + body_slot[cell]
                              + (0 if item.breakable else n_slots)).astype(IDX),
@@ -842,6 +875,16 @@ def build_model(case, mesh=None):
     if not any(getattr(item, "follower", False) for item in case.loads or []):
         ffol = mfol = np.zeros((0, 3))
 
+    # the face table: what the spring points of one face share (frame,
+    # stiffness per area, length, law) is held once per face; springs point
+    # to their face's row (spring_slot).  The points of a face follow each
+    # other in the schedule (same a, b: one group, sorted stably)
+    face = cat["face"]
+    first = np.ones(len(face), dtype=bool)
+    first[1:] = face[1:] != face[:-1]
+    slot = (np.cumsum(first) - 1).astype(IDX)
+    table = {key: np.ascontiguousarray(cat.pop(key)[first]) for key in ("frame", "kpa", "h", "law")}
+
     lam_aux = np.array(slot_lam)[body_slot]
     # the strain fit links cells of one material across intact faces (physics/poisson.py)
     poisson = (build_poisson(mesh.face_cells, mesh.face_area, cen, mesh.cell_volume, lam_aux,
@@ -854,16 +897,17 @@ def build_model(case, mesh=None):
         n_bodies=n, body_mass=mass, body_inertia=inertia, body_volume=mesh.cell_volume.copy(),
         body_material=body_material, body_pos0=pos0, body_quat0=quat0,
         spring_bodies=sb, spring_arm_a=np.ascontiguousarray(arm_a),
-        spring_arm_b=np.ascontiguousarray(arm_b), spring_frame0=cat["frame"],
-        spring_k=np.ascontiguousarray(cat["k"]),
-        spring_area=cat["area"], spring_h=cat["h"],
-        spring_face=cat["face"].astype(IDX, copy=False), group_ptr=group_ptr, phase_ptr=phase_ptr,
+        spring_arm_b=np.ascontiguousarray(arm_b), spring_slot=slot, spring_area=cat["area"],
+        face_frame0=table["frame"], face_k=table["kpa"], face_h=table["h"],
+        face_law=table["law"].astype(IDX, copy=False),
+        face_ref=np.ascontiguousarray(face[first]).astype(IDX, copy=False),
+        group_ptr=group_ptr, phase_ptr=phase_ptr,
         dof_kind=dof_kind, dof_value=dof_value, dof_hist=dof_hist,
         body_fext=fext, body_mext=mext, body_ffol=ffol, body_mfol=mfol,
         body_load_hist=load_hist, gravity=gravity,
         hist_ptr=np.asarray(hist_ptr, dtype=IDX), hist_t=np.asarray(hist_t, float),
         hist_a=np.asarray(hist_a, float), groups=groups, materials=materials, mesh=mesh,
-        n_cut=n_cut, spring_law=cat["law"].astype(IDX, copy=False), law_params=law_params,
+        n_cut=n_cut, law_params=law_params,
         spring_state0=cat["state0"].astype(np.int8, copy=False),
         inelastic=bool(n_cut > 0 or np.any(cat["state0"] >= BROKEN)
                        or np.any(law_params[:, [P_CRIT, P_RUPT]] > 0)))

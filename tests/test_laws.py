@@ -37,8 +37,7 @@ def step(m, st, u):
     body 0 toward body 1, σ > 0)."""
     st.body_pos[1] = m.body_pos0[1] + u
     inelastic_spring_pass(m.phase_ptr, m.group_ptr, m.spring_bodies, m.spring_arm_a,
-                          m.spring_arm_b, m.spring_frame0, m.spring_k, m.spring_area, m.spring_h,
-                          m.spring_law, m.law_params, st.body_pos, st.body_rot, st.body_dq,
+                          m.spring_arm_b, m.spring_slot, m.face_frame0, m.face_k, m.spring_area, m.face_h, m.face_law, m.law_params, st.body_pos, st.body_rot, st.body_dq,
                           st.body_wrench, st.body_support, st.spring_state, st.spring_dp,
                           st.spring_kappa, st.spring_dmg, st.spring_wp, st.spring_wf, True,
                           st.spring_force)

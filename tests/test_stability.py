@@ -71,10 +71,10 @@ def energies(m, st):
     lb_m = np.einsum("nki,nk->ni", R, st.body_angmom[:-1])
     v_m = st.body_vel[:-1]
     d = np.zeros((m.n_springs, 3))
-    spring_local_gap(m.spring_bodies, m.spring_arm_a, m.spring_arm_b, m.spring_frame0,
+    spring_local_gap(m.spring_bodies, m.spring_arm_a, m.spring_arm_b, m.spring_slot, m.face_frame0,
                      st.body_pos, st.body_rot, st.body_dq, d)
     u = (inelastic_strain_energy(m.spring_k, d, st.spring_state, st.spring_dp, st.spring_dmg)
-         if m.inelastic else elastic_energy(m.spring_k, d))
+         if m.inelastic else elastic_energy(m.spring_slot, m.face_k, m.spring_area, d))
     mass = m.body_mass[:, None]
     ek = 0.5 * np.sum(mass * vel * vel) + 0.5 * np.sum(lb * lb / m.body_inertia)
     # v_{n+½} = 2 v_n − v_{n−½} (no damping, no constrained DOF)

@@ -101,8 +101,7 @@ def kernel_body_forces(model, U):
     f = np.zeros((S, 3))
     out = np.zeros((n + 1, 6))
     elastic_spring_pass(model.phase_ptr, model.group_ptr, model.spring_bodies,
-                        model.spring_arm_a, model.spring_arm_b, model.spring_frame0,
-                        model.spring_face, model.spring_k, pos, rot, dq, out, np.zeros((n + 1, 3)),
+                        model.spring_arm_a, model.spring_arm_b, model.spring_slot, model.face_frame0, model.face_k, model.spring_area, pos, rot, dq, out, np.zeros((n + 1, 3)),
                         True, f)
     return out[:n], f
 
@@ -130,10 +129,12 @@ def test_one_spring_between_two_blocks_matches_the_hand_formula():
                        stiffness="kawai", box="[2.0, 1.0, 1.0]")
     s = int(np.argmax(model.spring_point[:, 1]))            # any one internal spring point
     assert model.spring_bodies[s].tolist() == [0, 1]
-    one = dataclasses.replace(model, **{
+    f = model.spring_slot[s]
+    one = dataclasses.replace(model, spring_slot=np.zeros(1, dtype=np.int32), **{
         k: getattr(model, k)[s:s + 1] for k in
-        ("spring_bodies", "spring_arm_a", "spring_arm_b", "spring_frame0", "spring_k",
-         "spring_area", "spring_h", "spring_face")})
+        ("spring_bodies", "spring_arm_a", "spring_arm_b", "spring_area")}, **{
+        k: getattr(model, k)[f:f + 1] for k in
+        ("face_frame0", "face_k", "face_h", "face_law", "face_ref")})
     A = model.spring_area[s]
     h = 1.0                                                  # centroid distance
     kn, ks = E * A / h, 0.5 * E * A / h                      # Kawai 1978 eq. 13 × area

@@ -87,7 +87,7 @@ def _crossing_share(r, rho):
 
 @nb.njit(inline="always", **JIT)
 def _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
-                     spring_frame0, spring_k, spring_area, spring_h, spring_law, law_params,
+                     spring_slot, face_frame0, face_k, spring_area, face_h, face_law, law_params,
                      body_pos, body_rot, body_dq, body_wrench, body_support,
                      spring_state, spring_dp, spring_kappa, spring_dmg, spring_wp, spring_wf,
                      store, spring_force, substep):
@@ -108,7 +108,8 @@ def _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
         b = np.uint64(spring_bodies[s, 1])
         d0, d1, d2, la0, la1, la2, lb0, lb1, lb2 = material_points(
             s, a, b, spring_arm_a, spring_arm_b, body_pos, body_rot)
-        fr = spring_frame0[s]
+        f = spring_slot[s]
+        fr = face_frame0[f]
         if a != fa or b != fb or fr[0] != r0 or fr[1] != r1 or fr[2] != r2 or fr[3] != r3:
             fa = a
             fb = b
@@ -123,11 +124,11 @@ def _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
         dn = F00 * d0 + F10 * d1 + F20 * d2
         ds = F01 * d0 + F11 * d1 + F21 * d2
         dt = F02 * d0 + F12 * d1 + F22 * d2
-        kn = spring_k[s, 0]
-        ks = spring_k[s, 1]
-        kt = spring_k[s, 2]
         area = spring_area[s]
-        P = law_params[spring_law[s]]
+        kn = face_k[f, 0] * area
+        ks = face_k[f, 1] * area
+        kt = face_k[f, 2] * area
+        P = law_params[face_law[f]]
         state = spring_state[s]
         fn = fs = ft = 0.0
         gn = gs = gt = lam = 0.0
@@ -195,7 +196,7 @@ def _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
                     state = YIELDED
             broken = dmg >= 1.0
             if rupt == STRAIN:
-                eps = equivalent_strain(dn, ds, dt, spring_h[s])
+                eps = equivalent_strain(dn, ds, dt, face_h[f])
                 eps0 = spring_kappa[s]       # the last step's equivalent strain
                 spring_kappa[s] = eps
                 if eps >= P[P_EPSCR]:
@@ -242,7 +243,7 @@ def _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
                                               + kt * e2 * (dt - e2))
                 spring_kappa[s] = 0.0
                 spring_dp[s, 0] = 0.0
-            if (dn * dn + ds * ds + dt * dt > spring_h[s] * spring_h[s]
+            if (dn * dn + ds * ds + dt * dt > face_h[f] * face_h[f]
                     or n2 < N2_PARTED):
                 # moved apart by a whole spring length (opened, slid or turned
                 # away), or turned by more than a right angle against each
@@ -279,15 +280,14 @@ def _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
 
 @nb.njit(parallel=True, **JIT)
 def _inelastic_phase(lo, hi, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
-                     spring_frame0, spring_k, spring_area, spring_h, spring_law, law_params,
+                     spring_slot, face_frame0, face_k, spring_area, face_h, face_law, law_params,
                      body_pos, body_rot, body_dq, body_wrench, body_support,
                      spring_state, spring_dp, spring_kappa, spring_dmg, spring_wp, spring_wf,
                      store, spring_force, parts, substep):
     for g in nb.prange(lo, hi):
         if g < parts:
             clear_part(g, parts, body_wrench, body_support)
-        _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spring_frame0,
-                         spring_k, spring_area, spring_h, spring_law, law_params, body_pos,
+        _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spring_slot, face_frame0, face_k, spring_area, face_h, face_law, law_params, body_pos,
                          body_rot, body_dq, body_wrench, body_support, spring_state, spring_dp,
                          spring_kappa, spring_dmg, spring_wp, spring_wf, store, spring_force,
                          substep)
@@ -295,7 +295,7 @@ def _inelastic_phase(lo, hi, group_ptr, spring_bodies, spring_arm_a, spring_arm_
 
 @nb.njit(**JIT)
 def _inelastic_phase_serial(lo, hi, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
-                            spring_frame0, spring_k, spring_area, spring_h, spring_law, law_params,
+                            spring_slot, face_frame0, face_k, spring_area, face_h, face_law, law_params,
                             body_pos, body_rot, body_dq, body_wrench, body_support,
                             spring_state, spring_dp, spring_kappa, spring_dmg, spring_wp,
                             spring_wf,
@@ -303,8 +303,7 @@ def _inelastic_phase_serial(lo, hi, group_ptr, spring_bodies, spring_arm_a, spri
     for g in range(lo, hi):
         if g < parts:
             clear_part(g, parts, body_wrench, body_support)
-        _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spring_frame0,
-                         spring_k, spring_area, spring_h, spring_law, law_params, body_pos,
+        _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spring_slot, face_frame0, face_k, spring_area, face_h, face_law, law_params, body_pos,
                          body_rot, body_dq, body_wrench, body_support, spring_state, spring_dp,
                          spring_kappa, spring_dmg, spring_wp, spring_wf, store, spring_force,
                          substep)
@@ -312,7 +311,7 @@ def _inelastic_phase_serial(lo, hi, group_ptr, spring_bodies, spring_arm_a, spri
 
 @nb.njit(**JIT)
 def inelastic_spring_pass(phase_ptr, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
-                          spring_frame0, spring_k, spring_area, spring_h, spring_law,
+                          spring_slot, face_frame0, face_k, spring_area, face_h, face_law,
                           law_params, body_pos, body_rot, body_dq, body_wrench, body_support,
                           spring_state, spring_dp, spring_kappa, spring_dmg,
                           spring_wp, spring_wf, store, spring_force, substep=False):
@@ -323,16 +322,14 @@ def inelastic_spring_pass(phase_ptr, group_ptr, spring_bodies, spring_arm_a, spr
     parts = phase_ptr[1]
     if serial_pass(spring_bodies.shape[0]):
         _inelastic_phase_serial(0, phase_ptr[phase_ptr.shape[0] - 1], group_ptr, spring_bodies,
-                                spring_arm_a, spring_arm_b, spring_frame0, spring_k, spring_area,
-                                spring_h, spring_law, law_params, body_pos, body_rot, body_dq,
+                                spring_arm_a, spring_arm_b, spring_slot, face_frame0, face_k, spring_area, face_h, face_law, law_params, body_pos, body_rot, body_dq,
                                 body_wrench, body_support, spring_state, spring_dp, spring_kappa,
                                 spring_dmg, spring_wp, spring_wf, store, spring_force, parts,
                                 substep)
         return
     for ph in range(phase_ptr.shape[0] - 1):
         _inelastic_phase(phase_ptr[ph], phase_ptr[ph + 1], group_ptr, spring_bodies,
-                         spring_arm_a, spring_arm_b, spring_frame0, spring_k, spring_area,
-                         spring_h, spring_law, law_params, body_pos, body_rot, body_dq,
+                         spring_arm_a, spring_arm_b, spring_slot, face_frame0, face_k, spring_area, face_h, face_law, law_params, body_pos, body_rot, body_dq,
                          body_wrench, body_support, spring_state, spring_dp, spring_kappa,
                          spring_dmg, spring_wp, spring_wf, store, spring_force, parts,
                                 substep)

@@ -134,8 +134,7 @@ def relax_body_pass(lam, kind, beta, c, reset, body_wrench, body_support, body_m
 
 @nb.njit(**JIT)
 def run_relax(n_iter, lam, kind, beta, c, reset,
-              spring_bodies, spring_arm_a, spring_arm_b, spring_frame0, spring_face, spring_k,
-              inelastic, spring_area, spring_h, spring_law, law_params,
+              spring_bodies, spring_arm_a, spring_arm_b, spring_slot, face_frame0, face_k, inelastic, spring_area, face_h, face_law, law_params,
               spring_state, spring_dp, spring_kappa, spring_dmg, spring_wp, spring_wf,
               phase_ptr, group_ptr, body_wrench, body_support, spring_force,
               body_mass_real, fict_mass, fict_inertia, body_pos, body_pos0, body_quat,
@@ -153,14 +152,13 @@ def run_relax(n_iter, lam, kind, beta, c, reset,
         first = reset and it == 0
         if inelastic:
             inelastic_spring_pass(phase_ptr, group_ptr, spring_bodies, spring_arm_a,
-                                  spring_arm_b, spring_frame0, spring_k, spring_area, spring_h,
-                                  spring_law, law_params, body_pos, body_rot, body_dq,
+                                  spring_arm_b, spring_slot, face_frame0, face_k, spring_area, face_h, face_law, law_params, body_pos, body_rot, body_dq,
                                   body_wrench, body_support, spring_state, spring_dp,
                                   spring_kappa, spring_dmg, spring_wp, spring_wf, False,
                                   spring_force)
         else:
             elastic_spring_pass(phase_ptr, group_ptr, spring_bodies, spring_arm_a,
-                                spring_arm_b, spring_frame0, spring_face, spring_k, body_pos,
+                                spring_arm_b, spring_slot, face_frame0, face_k, spring_area, body_pos,
                                 body_rot, body_dq, body_wrench, body_support, False, spring_force)
         if poisson_on:
             poisson_pass(inelastic, cell_slot_ptr, slot_cell, slot_rev, slot_g, cell_c0,

@@ -15,7 +15,8 @@ frames); the gap d = p_b − p_a is resolved in the spring frame turned by the
 mid rotation increment of the two bodies, Δq_m = normalize(Δq_a ± Δq_b),
 Δq = q q0⁻¹.  A rigid motion of the pair gives δ = 0 at any rotation size.
 Traction (Kawai 1978, eq. 13 form): σn = k_n δn, τs = k_s δs, τt = k_t δt;
-`spring_k` already holds stiffness × area [N/m].
+The points of one face share its row of the face table (spring_slot):
+frame, stiffness per area (k = face_k × area [N/m]), length, law.
 """
 
 import numba as nb
@@ -89,7 +90,7 @@ def gap_and_mid(s, spring_bodies, spring_arm_a, spring_arm_b, body_pos, body_rot
 
 
 @nb.njit(inline="always", **JIT)
-def gap_and_scaled_frame(s, spring_bodies, spring_arm_a, spring_arm_b, spring_frame0,
+def gap_and_scaled_frame(s, spring_bodies, spring_arm_a, spring_arm_b, spring_slot, face_frame0,
                          body_pos, body_rot, body_dq):
     """World gap d, lever arms l_a, l_b, scaled spring frame G = n2·F (columns n, s, t)
     and the scale n2 of spring s: the frame is p = q ⊗ q0 with q the
@@ -99,7 +100,7 @@ def gap_and_scaled_frame(s, spring_bodies, spring_arm_a, spring_arm_b, spring_fr
     Returns (d0, d1, d2, la0, la1, la2, lb0, lb1, lb2, G as 9 scalars row-major, n2)."""
     (d0, d1, d2, la0, la1, la2, lb0, lb1, lb2, q0, q1, q2, q3, n2) = gap_and_mid(
         s, spring_bodies, spring_arm_a, spring_arm_b, body_pos, body_rot, body_dq)
-    f = spring_frame0[s]
+    f = face_frame0[spring_slot[s]]
     G00, G01, G02, G10, G11, G12, G20, G21, G22 = scaled_frame(
         q0, q1, q2, q3, n2, f[0], f[1], f[2], f[3])
     return (d0, d1, d2, la0, la1, la2, lb0, lb1, lb2,
@@ -208,7 +209,7 @@ def clear_part(p, parts, body_wrench, body_support):
 
 @nb.njit(inline="always", **JIT)
 def _elastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
-                   spring_frame0, spring_face, spring_k, body_pos, body_rot, body_dq, body_wrench,
+                   spring_slot, face_frame0, face_k, spring_area, body_pos, body_rot, body_dq, body_wrench,
                    body_support, store, spring_force):
     """The springs of group g, in order (partition.py).
 
@@ -222,7 +223,8 @@ def _elastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
         return
     cur = np.uint64(spring_bodies[s0, 0])
     w0 = w1 = w2 = w3 = w4 = w5 = 0.0
-    held = np.int64(spring_face[s0]) + 1    # the face whose q, N are held: not the first
+    held = np.int64(spring_slot[s0]) + 1    # the face whose q, N are held: not the first
+    r0 = r1 = r2 = r3 = 0.0
     q0 = q1 = q2 = q3 = n2 = inv = N0 = N1 = N2 = 0.0
     for s in range(np.uint64(s0), np.uint64(s1)):
         # body ids are never negative: unsigned skips Numba's wraparound code
@@ -230,13 +232,15 @@ def _elastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
         b = np.uint64(spring_bodies[s, 1])
         d0, d1, d2, la0, la1, la2, lb0, lb1, lb2 = material_points(
             s, a, b, spring_arm_a, spring_arm_b, body_pos, body_rot)
-        if np.int64(spring_face[s]) != held:
-            held = np.int64(spring_face[s])
-            fr = spring_frame0[s]
+        f = np.int64(spring_slot[s])
+        if f != held:
+            held = f
+            r0, r1, r2, r3 = (face_frame0[f, 0], face_frame0[f, 1], face_frame0[f, 2],
+                              face_frame0[f, 3])
             # n0 = R(q0) e1 (quaternion q0 = (w, x, y, z) of the frame)
-            e0 = 1.0 - 2.0 * (fr[2] * fr[2] + fr[3] * fr[3])
-            e1 = 2.0 * (fr[1] * fr[2] + fr[0] * fr[3])
-            e2 = 2.0 * (fr[1] * fr[3] - fr[0] * fr[2])
+            e0 = 1.0 - 2.0 * (r2 * r2 + r3 * r3)
+            e1 = 2.0 * (r1 * r2 + r0 * r3)
+            e2 = 2.0 * (r1 * r3 - r0 * r2)
             q0, q1, q2, q3, n2 = mid_increment(a, b, body_dq)
             # n2·n = R(q) n0 by the homogeneous rotation formula of the
             # unnormalised q: (q0² − |v|²) n0 + 2 (v·n0) v + 2 q0 (v × n0)
@@ -250,17 +254,17 @@ def _elastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
             inv = 1.0 / (n2 * n2)
         # f = F diag(k) Fᵀ d = k_s d + (k_n − k_s) n (n·d) + (k_t − k_s) t (t·d):
         # the shear pair only needs the normal n when k_t = k_s.
-        kn = spring_k[s, 0]
-        ks = spring_k[s, 1]
-        kt = spring_k[s, 2]
+        area = spring_area[s]
+        kn = face_k[f, 0] * area
+        ks = face_k[f, 1] * area
+        kt = face_k[f, 2] * area
         cn = (kn - ks) * inv * (N0 * d0 + N1 * d1 + N2 * d2)
         f0 = ks * d0 + cn * N0
         f1 = ks * d1 + cn * N1
         f2 = ks * d2 + cn * N2
         if kt != ks:
             # a support held in some directions only: t = R(q ⊗ q0) e3
-            fr = spring_frame0[s]
-            w, x, y, z = quat_mul(q0, q1, q2, q3, fr[0], fr[1], fr[2], fr[3])
+            w, x, y, z = quat_mul(q0, q1, q2, q3, r0, r1, r2, r3)
             T0 = 2.0 * (x * z + w * y)
             T1 = 2.0 * (y * z - w * x)
             T2 = n2 - 2.0 * (x * x + y * y)
@@ -280,32 +284,30 @@ def _elastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
 
 @nb.njit(parallel=True, **JIT)
 def _elastic_phase(lo, hi, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
-                   spring_frame0, spring_face, spring_k, body_pos, body_rot, body_dq, body_wrench,
+                   spring_slot, face_frame0, face_k, spring_area, body_pos, body_rot, body_dq, body_wrench,
                    body_support, store, spring_force, parts):
     for g in nb.prange(lo, hi):
         if g < parts:
             clear_part(g, parts, body_wrench, body_support)
-        _elastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spring_frame0,
-                       spring_face, spring_k, body_pos, body_rot, body_dq, body_wrench, body_support,
+        _elastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spring_slot, face_frame0, face_k, spring_area, body_pos, body_rot, body_dq, body_wrench, body_support,
                        store, spring_force)
 
 
 @nb.njit(**JIT)
 def _elastic_phase_serial(lo, hi, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
-                          spring_frame0, spring_face, spring_k, body_pos, body_rot, body_dq,
+                          spring_slot, face_frame0, face_k, spring_area, body_pos, body_rot, body_dq,
                           body_wrench,
                           body_support, store, spring_force, parts):
     for g in range(lo, hi):
         if g < parts:
             clear_part(g, parts, body_wrench, body_support)
-        _elastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spring_frame0,
-                       spring_face, spring_k, body_pos, body_rot, body_dq, body_wrench, body_support,
+        _elastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spring_slot, face_frame0, face_k, spring_area, body_pos, body_rot, body_dq, body_wrench, body_support,
                        store, spring_force)
 
 
 @nb.njit(**JIT)
 def elastic_spring_pass(phase_ptr, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
-                        spring_frame0, spring_face, spring_k, body_pos, body_rot, body_dq,
+                        spring_slot, face_frame0, face_k, spring_area, body_pos, body_rot, body_dq,
                         body_wrench, body_support, store, spring_force):
     """Linear-elastic springs: force on body a, f = F diag(k) Fᵀ d [N]
     (Kawai 1978, eq. 13 form) with the spring frame F turned by the mid
@@ -315,24 +317,24 @@ def elastic_spring_pass(phase_ptr, group_ptr, spring_bodies, spring_arm_a, sprin
     parts = phase_ptr[1]
     if serial_pass(spring_bodies.shape[0]):
         _elastic_phase_serial(0, phase_ptr[phase_ptr.shape[0] - 1], group_ptr, spring_bodies,
-                              spring_arm_a, spring_arm_b, spring_frame0, spring_face, spring_k,
+                              spring_arm_a, spring_arm_b, spring_slot, face_frame0, face_k, spring_area,
                               body_pos, body_rot, body_dq, body_wrench, body_support, store,
                               spring_force, parts)
         return
     for ph in range(phase_ptr.shape[0] - 1):
         _elastic_phase(phase_ptr[ph], phase_ptr[ph + 1], group_ptr, spring_bodies,
-                       spring_arm_a, spring_arm_b, spring_frame0, spring_face, spring_k, body_pos,
+                       spring_arm_a, spring_arm_b, spring_slot, face_frame0, face_k, spring_area, body_pos,
                        body_rot, body_dq, body_wrench, body_support, store, spring_force, parts)
 
 
 @nb.njit(parallel=True, **JIT)
-def spring_local_gap(spring_bodies, spring_arm_a, spring_arm_b, spring_frame0,
+def spring_local_gap(spring_bodies, spring_arm_a, spring_arm_b, spring_slot, face_frame0,
                      body_pos, body_rot, body_dq, out_delta):
     """Local gap δ = (δn, δs, δt) of every spring [m] (output steps only)."""
     for s in nb.prange(spring_bodies.shape[0]):
         (d0, d1, d2, la0, la1, la2, lb0, lb1, lb2,
          G00, G01, G02, G10, G11, G12, G20, G21, G22, n2) = gap_and_scaled_frame(
-            s, spring_bodies, spring_arm_a, spring_arm_b, spring_frame0,
+            s, spring_bodies, spring_arm_a, spring_arm_b, spring_slot, face_frame0,
             body_pos, body_rot, body_dq)
         c = 1.0 / n2
         out_delta[s, 0] = c * (G00 * d0 + G10 * d1 + G20 * d2)
@@ -340,6 +342,13 @@ def spring_local_gap(spring_bodies, spring_arm_a, spring_arm_b, spring_frame0,
         out_delta[s, 2] = c * (G02 * d0 + G12 * d1 + G22 * d2)
 
 
-def elastic_energy(spring_k, delta):
-    """Strain energy ½ Σ k δ² [J] of linear springs (NumPy, output steps)."""
-    return 0.5 * float(np.sum(spring_k * delta * delta))
+@nb.njit(**JIT)
+def elastic_energy(spring_slot, face_k, spring_area, delta):
+    """Strain energy ½ Σ k δ² [J] of linear springs (output steps)."""
+    u = 0.0
+    for s in range(delta.shape[0]):
+        f = spring_slot[s]
+        a = spring_area[s]
+        u += (face_k[f, 0] * a * delta[s, 0] * delta[s, 0] + face_k[f, 1] * a * delta[s, 1]
+              * delta[s, 1] + face_k[f, 2] * a * delta[s, 2] * delta[s, 2])
+    return 0.5 * u

@@ -76,14 +76,13 @@ def spring_pass(model, state, substep=False):
     if m.inelastic:
         trial = {k: getattr(state, k).copy() for k in SPRING_HISTORY}
         inelastic_spring_pass(m.phase_ptr, m.group_ptr, m.spring_bodies, m.spring_arm_a,
-                              m.spring_arm_b, m.spring_frame0, m.spring_k, m.spring_area,
-                              m.spring_h, m.spring_law, m.law_params, state.body_pos,
+                              m.spring_arm_b, m.spring_slot, m.face_frame0, m.face_k, m.spring_area, m.face_h, m.face_law, m.law_params, state.body_pos,
                               state.body_rot, state.body_dq, state.body_wrench,
                               state.body_support, *trial.values(), True, state.spring_force,
                               substep)
     else:
         elastic_spring_pass(m.phase_ptr, m.group_ptr, m.spring_bodies, m.spring_arm_a,
-                            m.spring_arm_b, m.spring_frame0, m.spring_face, m.spring_k,
+                            m.spring_arm_b, m.spring_slot, m.face_frame0, m.face_k, m.spring_area,
                             state.body_pos,
                             state.body_rot, state.body_dq, state.body_wrench,
                             state.body_support, True, state.spring_force)
@@ -144,8 +143,7 @@ def advance(model, state, n_steps, damping_alpha=0.0, damping_local=0.0):
     m = model
     state.step = run_dynamic(
         n_steps, state.step, state.dt, m.inelastic,
-        m.spring_bodies, m.spring_arm_a, m.spring_arm_b, m.spring_frame0, m.spring_face,
-        m.spring_k, m.spring_area, m.spring_h, m.spring_law, m.law_params,
+        m.spring_bodies, m.spring_arm_a, m.spring_arm_b, m.spring_slot, m.face_frame0, m.face_k, m.spring_area, m.face_h, m.face_law, m.law_params,
         state.spring_state, state.spring_dp, state.spring_kappa, state.spring_dmg,
         state.spring_wp, state.spring_wf, m.phase_ptr, m.group_ptr,
         state.body_wrench, state.body_support, state.spring_force,

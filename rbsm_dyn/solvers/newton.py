@@ -137,14 +137,13 @@ class Newton:
                         state.spring_kappa.copy(), state.spring_dmg.copy(),
                         state.spring_wp.copy(), state.spring_wf.copy())
             inelastic_spring_pass(m.phase_ptr, m.group_ptr, m.spring_bodies, m.spring_arm_a,
-                                  m.spring_arm_b, m.spring_frame0, m.spring_k, m.spring_area,
-                                  m.spring_h, m.spring_law, m.law_params, state.body_pos,
+                                  m.spring_arm_b, m.spring_slot, m.face_frame0, m.face_k, m.spring_area, m.face_h, m.face_law, m.law_params, state.body_pos,
                                   state.body_rot, state.body_dq, state.body_wrench,
                                   state.body_support, *arrs, True, state.spring_force)
             sstate, dmg = arrs[0], arrs[3]
         else:
             elastic_spring_pass(m.phase_ptr, m.group_ptr, m.spring_bodies, m.spring_arm_a,
-                                m.spring_arm_b, m.spring_frame0, m.spring_face, m.spring_k,
+                                m.spring_arm_b, m.spring_slot, m.face_frame0, m.face_k, m.spring_area,
                                 state.body_pos, state.body_rot, state.body_dq,
                                 state.body_wrench, state.body_support, True,
                                 state.spring_force)
@@ -228,8 +227,8 @@ class Newton:
         k = np.zeros((m.n_springs, 3, 3))
         if sstate is not None:
             gap = np.empty((m.n_springs, 3))
-            spring_local_gap(m.spring_bodies, m.spring_arm_a, m.spring_arm_b, m.spring_frame0,
-                             state.body_pos, state.body_rot, state.body_dq, gap)
+            spring_local_gap(m.spring_bodies, m.spring_arm_a, m.spring_arm_b, m.spring_slot,
+                             m.face_frame0, state.body_pos, state.body_rot, state.body_dq, gap)
             self.tangent = bool(_local_tangents(
                 m.spring_k, m.spring_area, m.spring_h, m.spring_law, m.law_params, sstate, dmg,
                 state.spring_dmg, state.spring_kappa, state.spring_dp, gap, OPEN_FRACTION,

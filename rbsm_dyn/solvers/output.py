@@ -345,13 +345,13 @@ class Recorder:
 
     def strain_energy(self, state):
         m = self.model
-        spring_local_gap(m.spring_bodies, m.spring_arm_a, m.spring_arm_b, m.spring_frame0,
-                         state.body_pos, state.body_rot, state.body_dq, self._delta)
+        spring_local_gap(m.spring_bodies, m.spring_arm_a, m.spring_arm_b, m.spring_slot,
+                             m.face_frame0, state.body_pos, state.body_rot, state.body_dq, self._delta)
         if m.inelastic:
             u = inelastic_strain_energy(m.spring_k, self._delta, state.spring_state,
                                         state.spring_dp, state.spring_dmg)
         else:
-            u = elastic_energy(m.spring_k, self._delta)
+            u = elastic_energy(m.spring_slot, m.face_k, m.spring_area, self._delta)
         if m.poisson_on:
             u += poisson_energy(m.poisson, state.body_pos, state.body_rot,
                                 state.spring_state, state.spring_dmg)

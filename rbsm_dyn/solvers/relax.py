@@ -77,8 +77,7 @@ def run(case, model, recorder, *, max_steps=None, progress=None, check_every=200
                 k = min(k, max(0, int(max_steps) - total))
             ek, c = run_relax(
                 k, lam, kind, beta, c, it == 0, m.spring_bodies, m.spring_arm_a,
-                m.spring_arm_b, m.spring_frame0, m.spring_face, m.spring_k,
-                m.inelastic, m.spring_area, m.spring_h, m.spring_law, m.law_params,
+                m.spring_arm_b, m.spring_slot, m.face_frame0, m.face_k, m.inelastic, m.spring_area, m.face_h, m.face_law, m.law_params,
                 state.spring_state, state.spring_dp, state.spring_kappa,
                 state.spring_dmg, state.spring_wp, state.spring_wf, m.phase_ptr,
                 m.group_ptr, state.body_wrench, state.body_support, state.spring_force,
