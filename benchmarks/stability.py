@@ -59,9 +59,9 @@ ROOT = HERE.parent
 
 from rbsm_dyn.case import DT_SAFETY_MAX, load_case_text  # noqa: E402
 from rbsm_dyn.model import apply_initial, build_model, new_state  # noqa: E402
-from rbsm_dyn.physics.inelastic import inelastic_strain_energy  # noqa: E402
 from rbsm_dyn.physics.laws import BROKEN, CONTACT  # noqa: E402
-from rbsm_dyn.physics.springs import elastic_energy, spring_local_gap  # noqa: E402
+from rbsm_dyn.physics.springs import spring_local_gap  # noqa: E402
+from rbsm_dyn.solvers.output import strain_energy_of  # noqa: E402
 from rbsm_dyn.solvers import modal  # noqa: E402
 from rbsm_dyn.solvers.explicit import advance, choose_dt, start_half_step, synchronize  # noqa: E402
 
@@ -100,13 +100,7 @@ def build(text):
 # ------------------------------------------------------------------ energies
 
 def strain_energy(m, st):
-    d = np.zeros((m.n_springs, 3))
-    spring_local_gap(m.spring_bodies, m.spring_arm_a, m.spring_arm_b, m.spring_slot, m.face_frame0,
-                     st.body_pos, st.body_rot, st.body_dq, d)
-    if m.inelastic:
-        return inelastic_strain_energy(m.spring_k, d, st.spring_state, st.spring_dp,
-                                       st.spring_dmg)
-    return elastic_energy(m.spring_slot, m.face_k, m.spring_area, d)
+    return strain_energy_of(m, st)
 
 
 def energies(m, st):

@@ -40,8 +40,8 @@ from .laws.contact import CONTACT_OFF, contact_traction
 from .laws.plastic import plastic_return
 from .laws.rupture import (MIXED, SOFTENING, STRAIN, equivalent_strain, mixed_mode_damage,
                            softening_damage)
-from .springs import (add_wrench, clear_part, flush_a, material_points, mid_increment,
-                      scaled_frame, serial_pass)
+from .springs import (add_wrench, clear_part, flush_a, gap_and_scaled_frame, material_points,
+                      mid_increment, scaled_frame, serial_pass)
 
 JIT = dict(cache=True, nogil=True, fastmath=False, error_model="numpy")
 
@@ -335,20 +335,42 @@ def inelastic_spring_pass(phase_ptr, group_ptr, spring_bodies, spring_arm_a, spr
                                 substep)
 
 
-def inelastic_strain_energy(spring_k, delta, spring_state, spring_dp, spring_dmg):
-    """Elastic energy still stored in the springs [J] (NumPy, output steps):
-    ½ k (δ − δp)² with damage on tension and shear for intact springs, the
-    closed contact's ½ kn δn² + ½ ks (δτ − slip)² for broken ones."""
-    k = spring_k
-    intact = spring_state < BROKEN
-    e = delta - spring_dp
-    keep = 1.0 - spring_dmg
-    en = e[:, 0]
-    normal = np.where(en > 0, keep, 1.0) * k[:, 0] * en * en
-    shear = keep * (k[:, 1] * e[:, 1] ** 2 + k[:, 2] * e[:, 2] ** 2)
-    u_intact = 0.5 * np.sum((normal + shear)[intact])
-    closed = spring_state == CONTACT
-    dn = delta[:, 0]
-    u_contact = 0.5 * np.sum((k[:, 0] * np.minimum(dn, 0.0) ** 2
-                              + k[:, 1] * e[:, 1] ** 2 + k[:, 2] * e[:, 2] ** 2)[closed])
-    return float(u_intact + u_contact)
+@nb.njit(**JIT)
+def strain_energy(spring_bodies, spring_arm_a, spring_arm_b, spring_slot, face_frame0, face_k,
+                  spring_area, body_pos, body_rot, body_dq, inelastic, spring_state, spring_dp,
+                  spring_dmg):
+    """Elastic energy held by the springs [J] at the current positions
+    (output steps; one serial pass, no (S, 3) temporaries): ½ Σ k δ² for
+    linear springs; with `inelastic`, ½ k (δ − δp)² with damage on tension
+    and shear for intact springs, the closed contact's ½ kn δn² + ½ ks
+    (δτ − slip)² for broken ones (δ the local gap, springs.spring_local_gap)."""
+    u = 0.0
+    for s in range(spring_bodies.shape[0]):
+        (d0, d1, d2, la0, la1, la2, lb0, lb1, lb2,
+         G00, G01, G02, G10, G11, G12, G20, G21, G22, n2) = gap_and_scaled_frame(
+            s, spring_bodies, spring_arm_a, spring_arm_b, spring_slot, face_frame0,
+            body_pos, body_rot, body_dq)
+        c = 1.0 / n2
+        dn = c * (G00 * d0 + G10 * d1 + G20 * d2)
+        ds = c * (G01 * d0 + G11 * d1 + G21 * d2)
+        dt = c * (G02 * d0 + G12 * d1 + G22 * d2)
+        f = spring_slot[s]
+        area = spring_area[s]
+        kn = face_k[f, 0] * area
+        ks = face_k[f, 1] * area
+        kt = face_k[f, 2] * area
+        if not inelastic:
+            u += kn * dn * dn + ks * ds * ds + kt * dt * dt
+            continue
+        state = spring_state[s]
+        en = dn - spring_dp[s, 0]
+        es = ds - spring_dp[s, 1]
+        et = dt - spring_dp[s, 2]
+        if state < BROKEN:
+            keep = 1.0 - spring_dmg[s]
+            u += ((keep if en > 0.0 else 1.0) * kn * en * en
+                  + keep * (ks * es * es + kt * et * et))
+        elif state == CONTACT:
+            dc = min(dn, 0.0)
+            u += kn * dc * dc + ks * es * es + kt * et * et
+    return 0.5 * u

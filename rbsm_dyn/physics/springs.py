@@ -340,15 +340,3 @@ def spring_local_gap(spring_bodies, spring_arm_a, spring_arm_b, spring_slot, fac
         out_delta[s, 0] = c * (G00 * d0 + G10 * d1 + G20 * d2)
         out_delta[s, 1] = c * (G01 * d0 + G11 * d1 + G21 * d2)
         out_delta[s, 2] = c * (G02 * d0 + G12 * d1 + G22 * d2)
-
-
-@nb.njit(**JIT)
-def elastic_energy(spring_slot, face_k, spring_area, delta):
-    """Strain energy ½ Σ k δ² [J] of linear springs (output steps)."""
-    u = 0.0
-    for s in range(delta.shape[0]):
-        f = spring_slot[s]
-        a = spring_area[s]
-        u += (face_k[f, 0] * a * delta[s, 0] * delta[s, 0] + face_k[f, 1] * a * delta[s, 1]
-              * delta[s, 1] + face_k[f, 2] * a * delta[s, 2] * delta[s, 2])
-    return 0.5 * u

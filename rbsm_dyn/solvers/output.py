@@ -27,11 +27,10 @@ import numpy as np
 from .. import __version__
 from ..io.history import HistoryWriter
 from ..physics.rotation import quat_matrix_np, quat_mul_np
-from ..physics.inelastic import inelastic_strain_energy
+from ..physics.inelastic import strain_energy
 from ..physics.laws import BROKEN
 from ..physics.poisson import poisson_energy
 from ..physics.cell_stress import cell_stress
-from ..physics.springs import elastic_energy, spring_local_gap
 
 FIELD_SERIES = {
     "position": ("particles/bodies/position", (3,), "f8", "m"),
@@ -232,6 +231,15 @@ def surface_load_levers(case, model):
     return np.concatenate(cells), np.concatenate(terms)
 
 
+def strain_energy_of(m, state):
+    """Energy held by the springs of model m in `state` [J]
+    (physics/inelastic.strain_energy; the Poisson pass's apart)."""
+    return strain_energy(m.spring_bodies, m.spring_arm_a, m.spring_arm_b, m.spring_slot,
+                         m.face_frame0, m.face_k, m.spring_area, state.body_pos,
+                         state.body_rot, state.body_dq, m.inelastic, state.spring_state,
+                         state.spring_dp, state.spring_dmg)
+
+
 class Recorder:
     """Opens the history, writes the static part, appends frames."""
 
@@ -314,7 +322,6 @@ class Recorder:
             from .checkpoint import create_slots
             create_slots(w.h5file, new_state(m))
         w.start()
-        self._delta = np.zeros((m.n_springs, 3))
 
     @classmethod
     def resume(cls, case, model, path, frames, *, extra_observables=(), lock=True):
@@ -340,18 +347,11 @@ class Recorder:
             self.writer.discard()
             raise ValueError(f"{path}: its series {sorted(self.writer.series_paths)} are not "
                              f"those of the case {sorted(expected)}")
-        self._delta = np.zeros((model.n_springs, 3))
         return self
 
     def strain_energy(self, state):
         m = self.model
-        spring_local_gap(m.spring_bodies, m.spring_arm_a, m.spring_arm_b, m.spring_slot,
-                             m.face_frame0, state.body_pos, state.body_rot, state.body_dq, self._delta)
-        if m.inelastic:
-            u = inelastic_strain_energy(m.spring_k, self._delta, state.spring_state,
-                                        state.spring_dp, state.spring_dmg)
-        else:
-            u = elastic_energy(m.spring_slot, m.face_k, m.spring_area, self._delta)
+        u = strain_energy_of(m, state)
         if m.poisson_on:
             u += poisson_energy(m.poisson, state.body_pos, state.body_rot,
                                 state.spring_state, state.spring_dmg)
