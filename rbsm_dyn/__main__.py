@@ -513,8 +513,14 @@ def _run(case, model, args, threads, lock):
     t0 = time.perf_counter()
     try:
         if case.solver.mode == "dynamic":
+            governor = None
+            if args.threads is None and getattr(case.solver, "threads", None) is None:
+                # the default count, kept right while the run steps (threads.py)
+                import numba
+                from .threads import Governor
+                governor = Governor(model.n_springs, numba.config.NUMBA_NUM_THREADS)
             res = explicit.run(case, model, rec, max_steps=args.max_steps, progress=progress,
-                               restart=restart)
+                               restart=restart, governor=governor)
             summary = (f"{res['steps']} steps, dt = {res['dt']:.4g} s "
                        f"(estimate {res['dt_estimate']:.4g} s)")
         elif case.solver.mode == "static":

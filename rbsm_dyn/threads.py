@@ -8,10 +8,13 @@ only the cores that are idle: the cores this process may run on
 one; and one thread for a model too small for threads to pay
 (SERIAL_SPRINGS, benchmarks/README.md "Waiting policy").  One thread is
 never slower than one thread; two on a busy two-core machine were 0.5-0.9x
-of it.  `--threads` and `solver.threads` override.
+of it.  While a dynamic run steps, Governor looks again every 30 s, so a
+program started beside a run gets its core back (and returns it when it
+stops).  `--threads` and `solver.threads` override.
 """
 import math
 import os
+import time
 
 #: spring points below which a run uses one thread by default (idle, 2 cores,
 #: 2 threads against 1: 0.47x at 1 497, 0.88x at 19 634, 1.30x at 51 634,
@@ -42,18 +45,26 @@ def own_load():
     return cpu / age * (1.0 - math.exp(-age / 60.0))
 
 
-def idle_cores():
+def _cores():
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
+
+
+def _loadavg():
+    try:
+        return os.getloadavg()[0]
+    except (AttributeError, OSError):
+        return 0.0
+
+
+def idle_cores(own=None):
     """Cores this process may use that the last minute's load of other
-    processes left idle (at least 1)."""
-    try:
-        cores = len(os.sched_getaffinity(0))
-    except (AttributeError, OSError):
-        cores = os.cpu_count() or 1
-    try:
-        load = os.getloadavg()[0]
-    except (AttributeError, OSError):
-        load = 0.0
-    load = max(0.0, load - own_load())
+    processes left idle (at least 1); `own`: this process's share of the
+    load (default own_load())."""
+    cores = _cores()
+    load = max(0.0, _loadavg() - (own_load() if own is None else own))
     return max(1, min(cores, int(cores - load + 0.5)))
 
 
@@ -63,3 +74,47 @@ def default_threads(n_springs, available):
     if n_springs < SERIAL_SPRINGS:
         return 1
     return max(1, min(int(available), idle_cores()))
+
+
+#: seconds between two looks at the load while a run with the default count
+#: steps (a program started beside it takes its core back within a minute:
+#: the load average's time constant)
+RECHECK_SECONDS = 30.0
+
+
+class Governor:
+    """The default thread count kept right during a run: every
+    RECHECK_SECONDS, `check()` takes the cores the load of other processes
+    leaves idle, this process's own share being its CPU time over the last
+    interval (all threads) per wall second, and sets Numba's count to it.
+    Results do not depend on the count (partition.py), so it may change
+    between steps.  Made by the command line only when no count was given."""
+
+    def __init__(self, n_springs, available, clock=time.monotonic, cpu=time.process_time):
+        self.n_springs, self.available = n_springs, int(available)
+        self.clock, self.cpu = clock, cpu
+        self.t, self.c = clock(), cpu()
+        self.changes = 0
+
+    def pick(self, own):
+        """The count for this process's recent CPU use `own` [cores]."""
+        if self.n_springs < SERIAL_SPRINGS:
+            return 1
+        return max(1, min(self.available, idle_cores(own)))
+
+    def check(self):
+        """Re-pick the count when RECHECK_SECONDS have passed; returns the
+        new count when it changed, else None."""
+        now = self.clock()
+        if now - self.t < RECHECK_SECONDS:
+            return None
+        c = self.cpu()
+        own = (c - self.c) / (now - self.t)
+        self.t, self.c = now, c
+        import numba
+        n = self.pick(own)
+        if n == numba.get_num_threads():
+            return None
+        numba.set_num_threads(n)
+        self.changes += 1
+        return n

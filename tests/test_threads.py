@@ -29,6 +29,34 @@ def test_busy_cores_are_not_counted(monkeypatch):
     assert threads.default_threads(big, 2) == 2
 
 
+def test_a_run_gives_a_core_back_to_a_program_started_beside_it(monkeypatch):
+    """threads.Governor: two cores, a run on 2 threads.  A CPU-bound program
+    starts: the load is 3 (theirs 1 + ours 2) while our threads, sharing two
+    cores with it, used 1.3 cores over the last interval: 1.7 cores of other
+    load, one left idle -> 1 thread.  It stops: load 1.2, ours 1.0 -> 2."""
+    import numba
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0, 1}, raising=False)
+    now, cpu, count = [0.0], [0.0], [2]
+    monkeypatch.setattr(numba, "get_num_threads", lambda: count[0])
+    monkeypatch.setattr(numba, "set_num_threads", lambda n: count.__setitem__(0, n))
+    gov = threads.Governor(10 * threads.SERIAL_SPRINGS, 2, clock=lambda: now[0],
+                           cpu=lambda: cpu[0])
+
+    def interval(seconds, cores_used, load):
+        monkeypatch.setattr(os, "getloadavg", lambda: (load, 0.0, 0.0))
+        now[0] += seconds
+        cpu[0] += seconds * cores_used
+        return gov.check()
+
+    assert interval(10.0, 2.0, 3.0) is None            # not yet RECHECK_SECONDS
+    assert interval(threads.RECHECK_SECONDS, 1.3, 3.0) == 1 and count[0] == 1
+    assert interval(threads.RECHECK_SECONDS, 1.0, 2.0) is None   # still busy: stays 1
+    assert interval(threads.RECHECK_SECONDS, 1.0, 1.2) == 2 and count[0] == 2
+    # a model below the serial size stays on one thread whatever the load
+    small = threads.Governor(threads.SERIAL_SPRINGS - 1, 2)
+    assert small.pick(0.0) == 1
+
+
 def test_own_load_of_a_busy_process():
     """After ~2 s of pure CPU at the start of a fresh process its share of
     the load average is about (2 s of CPU / age) (1 − e^(−age/60 s)), i.e.

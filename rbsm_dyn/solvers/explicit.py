@@ -233,8 +233,11 @@ def follower_half_step_work(model, state):
 
 
 def run(case, model, recorder, *, max_steps=None, progress=None, chunk_steps=None,
-        restart=None):
+        restart=None, governor=None):
     """Run a dynamic case, writing frames through `recorder`.
+
+    governor: a threads.Governor that re-picks the default thread count
+    between chunks of steps (None: the count stays).
 
     restart: (State, checkpoint data) from checkpoint.load_for_restart: go on
     from that state (its frames are in the recorder's file already).
@@ -314,7 +317,7 @@ def run(case, model, recorder, *, max_steps=None, progress=None, chunk_steps=Non
             e0 = float(restart[1]["e0"])
         ckpt.mark(state)
         _loop(model, state, recorder, progress, record, energy_runaway, ckpt, guard, e0,
-              n_total, out_every, chunk_steps, (alpha, local), v_limit, dt, est)
+              n_total, out_every, chunk_steps, (alpha, local), v_limit, dt, est, governor)
         ckpt.write(state, e0)
     wall = _time.perf_counter() - t_wall
     return dict(steps=state.step, dt=dt, dt_estimate=est, wall_time=wall, state=state,
@@ -364,7 +367,7 @@ class QuasiStaticCheck:
 
 
 def _loop(model, state, recorder, progress, record, energy_runaway, ckpt, guard, e0,
-          n_total, out_every, chunk_steps, damping, v_limit, dt, est):
+          n_total, out_every, chunk_steps, damping, v_limit, dt, est, governor=None):
     obs = {}
     over = 0                  # output frames in a row over the energy bound
     if progress:
@@ -373,6 +376,8 @@ def _loop(model, state, recorder, progress, record, energy_runaway, ckpt, guard,
         next_out = (state.step // out_every + 1) * out_every
         n = min(next_out, n_total, state.step + chunk_steps) - state.step
         advance(model, state, n, *damping)
+        if governor is not None:
+            governor.check()
         pos = state.body_pos
         if not np.all(np.isfinite(pos)) or not np.all(np.isfinite(state.body_angmom)) or \
                 np.abs(state.body_vel).max() > v_limit:
