@@ -4,8 +4,9 @@ Numba's default is every core.  On a machine where other programs run,
 a parallel region waits at its barrier for a thread the OS has parked:
 tens of thousands of steps, several regions each.  So the default counts
 only the cores that are idle: the cores this process may run on
-(os.sched_getaffinity) less the one-minute load average, rounded, at least
-one; and one thread for a model too small for threads to pay
+(os.sched_getaffinity) less the other processes' runnable tasks (sampled
+over 0.2 s from /proc/stat; the one-minute load average where there is no
+/proc), rounded, at least one; and one thread for a model too small for threads to pay
 (SERIAL_SPRINGS, benchmarks/README.md "Waiting policy").  One thread is
 never slower than one thread; two on a busy two-core machine were 0.5-0.9x
 of it.  While a dynamic run steps, Governor looks again every 30 s, so a
@@ -59,12 +60,67 @@ def _loadavg():
         return 0.0
 
 
-def idle_cores(own=None):
-    """Cores this process may use that the last minute's load of other
-    processes left idle (at least 1); `own`: this process's share of the
-    load (default own_load())."""
+#: samples of the runnable tasks, and the seconds between two
+SAMPLES, SAMPLE_GAP = 10, 0.02
+
+
+def _procs_running():
+    """Tasks runnable on the machine right now (/proc/stat), or None."""
+    try:
+        with open("/proc/stat") as f:
+            for line in f:
+                if line.startswith("procs_running"):
+                    return int(line.split()[1])
+    except (OSError, ValueError, IndexError):
+        pass
+    return None
+
+
+def _own_running():
+    """This process's threads that are runnable right now (the caller's
+    among them)."""
+    n = 0
+    try:
+        for t in os.listdir("/proc/self/task"):
+            try:
+                with open(f"/proc/self/task/{t}/stat") as f:
+                    n += f.read().rsplit(")", 1)[1].split()[0] == "R"
+            except (OSError, IndexError):
+                pass
+    except OSError:
+        return 1
+    return max(n, 1)
+
+
+def running_others(samples=None, gap=None):
+    """Other processes' runnable tasks now: the mean over SAMPLES looks,
+    SAMPLE_GAP apart, of the machine's runnable count less this process's
+    own (0.2 s at start-up).  Unlike the load average it forgets a program
+    that has just ended (runs started one after another in a script saw
+    their predecessor's minute of load and took one thread).  None where
+    there is no /proc."""
+    samples = SAMPLES if samples is None else samples
+    gap = SAMPLE_GAP if gap is None else gap
+    total = 0.0
+    for k in range(samples):
+        n = _procs_running()
+        if n is None:
+            return None
+        total += max(0, n - _own_running())
+        if k + 1 < samples:
+            time.sleep(gap)
+    return total / samples
+
+
+def idle_cores(own=None, samples=None):
+    """Cores this process may use that other processes leave idle (at least
+    1): its cores less the others' runnable tasks now (running_others), or
+    where that cannot be seen, less the last minute's load average with
+    this process's share `own` taken off (default own_load())."""
     cores = _cores()
-    load = max(0.0, _loadavg() - (own_load() if own is None else own))
+    load = running_others(samples)
+    if load is None:
+        load = max(0.0, _loadavg() - (own_load() if own is None else own))
     return max(1, min(cores, int(cores - load + 0.5)))
 
 
@@ -100,7 +156,8 @@ class Governor:
         """The count for this process's recent CPU use `own` [cores]."""
         if self.n_springs < SERIAL_SPRINGS:
             return 1
-        return max(1, min(self.available, idle_cores(own)))
+        # (5 looks 20 ms apart: 0.1 s in 30 s of stepping)
+        return max(1, min(self.available, idle_cores(own, samples=5)))
 
     def check(self):
         """Re-pick the count when RECHECK_SECONDS have passed; returns the

@@ -1,5 +1,5 @@
 """The default thread count (issue 15; rbsm_dyn/threads.py): the idle
-cores by the load average, one for a small model; and the OpenMP waiting
+cores (other processes' runnable tasks now, or the load average), one for a small model; and the OpenMP waiting
 policy rbsm_dyn sets (Numba's threads sleep at a barrier unless the user
 chose otherwise)."""
 import os
@@ -15,6 +15,8 @@ def test_one_thread_below_the_serial_size(monkeypatch):
 
 
 def test_busy_cores_are_not_counted(monkeypatch):
+    # where /proc/stat cannot be read: the load average less this process's share
+    monkeypatch.setattr(threads, "_procs_running", lambda: None)
     monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0, 1}, raising=False)
     monkeypatch.setattr(threads, "own_load", lambda: 0.0)
     big = 10 * threads.SERIAL_SPRINGS
@@ -29,12 +31,30 @@ def test_busy_cores_are_not_counted(monkeypatch):
     assert threads.default_threads(big, 2) == 2
 
 
+def test_runnable_tasks_now_not_the_last_minutes_load(monkeypatch):
+    """Two cores.  A program that has just ended left a load average of 1.0
+    but no runnable task: both cores are idle.  A CPU-bound program now
+    (runnable count 2 with this process's 1): one core."""
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0, 1}, raising=False)
+    monkeypatch.setattr(os, "getloadavg", lambda: (1.0, 1.0, 1.0))
+    monkeypatch.setattr(threads, "_own_running", lambda: 1)
+    monkeypatch.setattr(threads, "SAMPLE_GAP", 0.0)
+    big = 10 * threads.SERIAL_SPRINGS
+    monkeypatch.setattr(threads, "_procs_running", lambda: 1)
+    assert threads.default_threads(big, 2) == 2
+    monkeypatch.setattr(threads, "_procs_running", lambda: 2)
+    assert threads.default_threads(big, 2) == 1
+    # on this machine, now: a count of at least this process's own thread
+    assert threads._procs_running() >= 1 and threads.running_others() >= 0.0
+
+
 def test_a_run_gives_a_core_back_to_a_program_started_beside_it(monkeypatch):
     """threads.Governor: two cores, a run on 2 threads.  A CPU-bound program
     starts: the load is 3 (theirs 1 + ours 2) while our threads, sharing two
     cores with it, used 1.3 cores over the last interval: 1.7 cores of other
     load, one left idle -> 1 thread.  It stops: load 1.2, ours 1.0 -> 2."""
     import numba
+    monkeypatch.setattr(threads, "_procs_running", lambda: None)    # the load-average path
     monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0, 1}, raising=False)
     now, cpu, count = [0.0], [0.0], [2]
     monkeypatch.setattr(numba, "get_num_threads", lambda: count[0])
