@@ -1,7 +1,7 @@
 """The default thread count (issue 15; rbsm_dyn/threads.py): the idle
-cores (other processes' runnable tasks now, or the load average), one for a small model; and the OpenMP waiting
-policy rbsm_dyn sets (Numba's threads sleep at a barrier unless the user
-chose otherwise)."""
+cores (other processes' runnable tasks now, or the load average), one for
+a small model; and the OpenMP waiting policy rbsm_dyn sets (Numba's
+threads sleep at a barrier unless the user chose otherwise)."""
 import os
 import subprocess
 import sys
