@@ -39,7 +39,7 @@ __all__ = [
     "CaseError", "load_case", "load_case_text", "Case", "Domain", "Mesh",
     "Material", "Yield", "Rupture", "Group", "FaceSupport", "GroupFix",
     "GroupVelocity", "GroupDisplacement", "InitialVelocity", "GroupLoad",
-    "SurfaceLoad", "Gravity", "Cut", "Damping", "Solver", "Probe", "RelativeProbe", "Output",
+    "SurfaceLoad", "Gravity", "Cut", "Contact", "Ground", "Damping", "Solver", "Probe", "RelativeProbe", "Output",
     "DIMENSIONS",
     "MAX_CELLS", "NUMBER_LIMIT",
 ]
@@ -360,6 +360,31 @@ class Cut(_Node):
     within: Box
 
 
+class Ground(_Node):
+    """A fixed rigid half-space that cells may land on: the plane through
+    ``point`` with the outward unit ``normal`` (the ground lies on the
+    side the normal points away from)."""
+    point: Vec3 = [0.0, 0.0, 0.0]
+    normal: Vec3 = [0.0, 0.0, 1.0]
+
+
+class Contact(_Node):
+    """Contact between any cells (DESIGN.md §8, physics/collide.py):
+    ``between: all`` (every pair of cells that are not tied by springs),
+    ``[part_a, part_b]`` or a list of such pairs (a part may be paired with
+    itself: its fragments meet); Coulomb ``friction`` μ; ``stiffness``: a
+    factor on the penalty (default 1: two half-cells in series, l_a/E_a +
+    l_b/E_b); ``damping``: the ratio ζ of a normal dashpot to its critical
+    2√(k m*) (default 0: an elastic bounce); ``skin`` [m]: the margin of the neighbour search (default a
+    fifth of the smallest cell size); ``ground``: a fixed half-space."""
+    between: Union[Literal["all"], list[str], list[list[str]]] = "all"
+    friction: float = Field(default=0.0, ge=0)
+    stiffness: float = Field(default=1.0, gt=0)
+    damping: float = Field(default=0.0, ge=0, le=1)
+    skin: Optional[float] = Field(default=None, gt=0)
+    ground: Optional[Ground] = None
+
+
 class Damping(_Node):
     """Mass-proportional damping ``alpha`` [1/s]; Cundall's local
     non-viscous damping ``local`` = β in [0, 1) (the force against each
@@ -560,6 +585,7 @@ class Case(_Node):
     initial: list[InitialVelocity] = []
     loads: list[LoadItem] = []
     cuts: list[Cut] = []
+    contact: Optional[Contact] = None
     solver: Solver
     output: Output = Output()
 
@@ -631,6 +657,8 @@ DIMENSIONS: dict[tuple[type, str], str] = {
     (Gravity, "gravity"): "acceleration",
     (Cut, "point"): "length",
     (Cut, "within"): "length",
+    (Contact, "skin"): "length",
+    (Ground, "point"): "length",
     (Damping, "alpha"): "1/time",
     (Solver, "end_time"): "time",
     (Solver, "dt"): "time",
@@ -1374,6 +1402,9 @@ def _check(case: Case) -> None:
             raise err(path, "required key missing: velocity or angular_velocity")
         check_group(item.group, path + ("group",))
 
+    if case.contact is not None:
+        _check_contact(case, err)
+
     gravity = 0
     for i, load in enumerate(case.loads):
         path = ("loads", i)
@@ -1494,6 +1525,34 @@ def _check(case: Case) -> None:
             if probe.points[0] == probe.points[1]:
                 raise err(path + ("points", 1), "the same point as points[0] "
                           "(the relative displacement would be 0)")
+
+
+def _check_contact(case: Case, err) -> None:
+    """contact: dynamic mode only; ``between`` names parts (a one-part
+    scene takes ``all``); the ground's normal is not zero.  ``between`` is
+    left as ``all`` or a list of [part_a, part_b] pairs."""
+    c = case.contact
+    path = ("contact",)
+    if case.solver.mode != "dynamic":
+        raise err(path, f"contact acts in solver.mode dynamic only (got {case.solver.mode})")
+    if c.between != "all":
+        pairs = c.between
+        if pairs and all(isinstance(x, str) for x in pairs):
+            pairs = [pairs]
+        for k, pair in enumerate(pairs):
+            kp = path + ("between",) + ((k,) if pairs is not c.between else ())
+            if len(pair) != 2:
+                raise err(kp, f"expected all, [part_a, part_b] or a list of such pairs "
+                          f"(got {len(pair)} names)")
+            for j, name in enumerate(pair):
+                if name not in case.parts:
+                    raise err(kp + (j,), f"unknown part {name!r} (parts: "
+                              f"{', '.join(case.parts) or 'none: a one-part scene takes all'})")
+        if not pairs:
+            raise err(path + ("between",), "must not be empty (all, or [part_a, part_b])")
+        c.between = [list(p) for p in pairs]
+    if c.ground is not None and not any(c.ground.normal):
+        raise err(path + ("ground", "normal"), "must not be the zero vector")
 
 
 # -------------------------------------------------------------- public API ---

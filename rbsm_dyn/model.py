@@ -7,6 +7,7 @@ physics/ take these arrays; nothing here is read by a kernel as an object.
 
 Index type: int32 throughout (DESIGN.md §5); state float64.
 """
+import dataclasses
 from dataclasses import dataclass, field
 
 import numba as nb
@@ -118,6 +119,7 @@ class Model:
     inelastic: bool = False
     poisson: object = None
     warnings: tuple = ()          # messages for the user (conflicting constraints, ...)
+    contact: object = None        # contact_model.ContactModel, None: no contact
 
     @property
     def poisson_on(self):
@@ -234,6 +236,7 @@ class State:
     spring_wf: np.ndarray = None
     aux_g: np.ndarray = None
     aux_p: np.ndarray = None
+    contact: object = None        # contact_model.ContactState when Model.contact
     step: int = 0
     dt: float = 0.0
 
@@ -261,6 +264,9 @@ def new_state(model):
     st.aux_g = np.zeros((len(model.poisson.slot_cell) if on else 0, 3))
     st.aux_p = np.zeros((7, n if on else 0))
     refresh_all_rotations(n + 1, st.body_quat, model.body_quat0, st.body_rot, st.body_dq)
+    if model.contact is not None:
+        from .contact_model import new_contact_state
+        st.contact = new_contact_state(model)
     return st
 
 
@@ -892,7 +898,7 @@ def build_model(case, mesh=None):
                              np.where(body_rigid, len(mat_names) + np.arange(n), body_material),
                              cat["state0"])
                if np.any(lam_aux > 0) else empty_poisson(n))
-    return Model(
+    model = Model(
         poisson=poisson, warnings=tuple(notes),
         n_bodies=n, body_mass=mass, body_inertia=inertia, body_volume=mesh.cell_volume.copy(),
         body_material=body_material, body_pos0=pos0, body_quat0=quat0,
@@ -911,6 +917,15 @@ def build_model(case, mesh=None):
         spring_state0=cat["state0"].astype(np.int8, copy=False),
         inelastic=bool(n_cut > 0 or np.any(cat["state0"] >= BROKEN)
                        or np.any(law_params[:, [P_CRIT, P_RUPT]] > 0)))
+    from .contact_model import build_contact, contact_setting
+    setting = contact_setting(case, model)
+    if setting is None:
+        return model
+    cm = build_contact(case, model, setting)
+    if cm.n_hull:
+        notes.append(f"contact: {cm.n_hull} non-convex cell(s) meet others by their convex "
+                     "hulls")
+    return dataclasses.replace(model, contact=cm, warnings=tuple(notes))
 
 
 def apply_initial(case, model, state):

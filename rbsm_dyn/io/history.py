@@ -759,7 +759,7 @@ class History:
     def energy_balance(self) -> dict:
         """Energy balance of the run (solvers/output.py), each (T,) [J]:
         ``stored`` = kinetic + strain, ``dissipated`` = damping + plastic +
-        fracture, ``supplied`` = kinetic(0) + strain(0) + external_work, and
+        fracture (+ contact_friction), ``supplied`` = kinetic(0) + strain(0) + external_work, and
         ``error`` = stored + dissipated - supplied (0 for an exact balance).
         Missing observables count as 0."""
         o = self.observables
@@ -769,7 +769,8 @@ class History:
             return np.asarray(o.get(name, zero), np.float64)
 
         stored = get("kinetic") + get("strain")
-        dissipated = get("damping") + get("plastic") + get("fracture")
+        dissipated = (get("damping") + get("plastic") + get("fracture")
+                      + get("contact_friction"))
         o0 = self.observables0
         e0 = float(o0.get("kinetic", 0.0)) + float(o0.get("strain", 0.0))
         supplied = e0 + get("external_work")

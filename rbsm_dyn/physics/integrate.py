@@ -29,6 +29,7 @@ load gives a free body over the step: F_n · v_{n+1/2} dt would book
 import numba as nb
 
 from .rotation import dlm_free_rotor, quat_mul, quat_to_matrix
+from .collide import contact_step
 from .inelastic import inelastic_spring_pass
 from .poisson import poisson_pass
 from .springs import elastic_spring_pass, part_range
@@ -289,11 +290,14 @@ def run_dynamic(n_steps, step0, dt, inelastic,
                 damping_alpha, damping_local, dof_kind, dof_value, dof_hist, hist_ptr, hist_t,
                 hist_a, body_work, body_damp, body_reaction, poisson_on,
                 cell_slot_ptr, slot_cell, slot_rev, slot_g, cell_c0, slot_s0, slot_s1,
-                cell_lv, aux_g, aux_p):
+                cell_lv, aux_g, aux_p, contact_on, contact_overwrite, contact_args):
     """Advance n_steps explicit steps inside compiled code.  Step order:
     springs at x_n (summed into the body wrenches) → auxiliary stress of
     the Poisson correction if `poisson_on` (physics/poisson.py, added to
-    the same wrenches) → bodies kick, drift.
+    the same wrenches) → contact forces if `contact_on` (physics/collide.py,
+    contact_args: contact_model.ContactState.args; `contact_overwrite`:
+    a model without springs, whose wrenches no spring pass clears) →
+    bodies kick, drift.
     The spring kernel is the elastic one unless `inelastic` (yield,
     rupture, contact: physics/inelastic.py, with the per-spring history
     arrays; empty otherwise)."""
@@ -313,6 +317,10 @@ def run_dynamic(n_steps, step0, dt, inelastic,
             poisson_pass(inelastic, cell_slot_ptr, slot_cell, slot_rev, slot_g, cell_c0,
                          slot_s0, slot_s1, cell_lv, spring_state, spring_dmg, body_pos,
                          body_rot, aux_g, aux_p, body_wrench)
+        if contact_on:
+            contact_step(dt, body_pos, body_rot, body_vel, body_angmom, body_inertia,
+                         body_mass, body_wrench, body_damp, contact_overwrite, True,
+                         *contact_args)
         dynamic_body_pass(t, dt, body_wrench, body_support,
                           body_mass, body_inertia, body_pos, body_pos0, body_quat,
                           body_quat0, body_vel, body_angmom, body_rot, body_dq,

@@ -276,6 +276,10 @@ def load_for_restart(case, model, path, *, writer_alive=None):
     if case.solver.mode != "dynamic":
         raise RestartError(f"--restart: solver.mode {case.solver.mode} has no checkpoints "
                            "(only dynamic runs can be restarted; run the case again)")
+    if model.contact is not None:
+        raise RestartError("--restart: a run with contact cannot be restarted yet (its "
+                           "contact pairs and their slip memory are not in the checkpoint); "
+                           "run the case again")
     data, case_json = read_checkpoint(path, writer_alive=writer_alive)
     if case_json is not None:
         then = _drop_free(json.loads(case_json))

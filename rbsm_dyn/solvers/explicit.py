@@ -24,6 +24,9 @@ import time as _time
 import numpy as np
 
 from ..model import apply_initial, new_state
+from ..contact_model import chunk_steps as contact_chunk
+from ..contact_model import rebuild, stiffness_check
+from ..physics.collide import N_OUT, contact_step
 from ..physics.integrate import run_dynamic, synchronized_momenta
 from ..physics.inelastic import inelastic_spring_pass
 from ..physics.poisson import poisson_args, poisson_pass
@@ -90,6 +93,17 @@ def spring_pass(model, state, substep=False):
         poisson_pass(m.inelastic, *poisson_args(m, state)[:8], state.spring_state,
                      state.spring_dmg, state.body_pos, state.body_rot, state.aux_g,
                      state.aux_p, state.body_wrench)
+    if m.contact is not None:
+        # on a copy of the slip memory: repeating it at an output step
+        # changes nothing (the step from here commits); the copy, with the
+        # pairs' forces and energies at these positions, is returned
+        cs = state.contact.trial()
+        on, over, args = _contact_args(m, state, cs)
+        contact_step(state.dt, state.body_pos, state.body_rot, state.body_vel,
+                     state.body_angmom, m.body_inertia, m.body_mass, state.body_wrench,
+                     state.body_damp, over, False, *args)
+        trial = {} if trial is None else trial
+        trial["contact"] = cs
     return trial
 
 
@@ -99,7 +113,8 @@ def check_model(case, model):
     only a dynamic run with a fixed solver.dt -- free rigid bodies -- makes
     sense) or a body without a positive, finite mass or inertia."""
     if model.n_springs == 0 and not (case.solver.mode == "dynamic"
-                                     and getattr(case.solver, "dt", None)):
+                                     and (getattr(case.solver, "dt", None)
+                                          or model.contact is not None)):
         why = ("no stable step to take dt from: give solver.dt for free rigid bodies, "
                if case.solver.mode == "dynamic" else f"nothing for mode {case.solver.mode} "
                "to solve: ")
@@ -121,6 +136,10 @@ def choose_dt(case, model):
     without a finite stable step (check_model)."""
     check_model(case, model)
     est = model.stable_dt()
+    if model.contact is not None and model.n_springs == 0:
+        # rigid cells on contact alone: the contact's own bound
+        from ..contact_model import contact_stable_dt
+        est = min(est, contact_stable_dt(model))
     fixed = getattr(case.solver, "dt", None)
     if not (est > 0) or (not np.isfinite(est) and not fixed):
         raise case.error(("solver", "dt"), f"the model has no finite stable step (estimate "
@@ -153,7 +172,23 @@ def advance(model, state, n_steps, damping_alpha=0.0, damping_local=0.0):
         damping_alpha, damping_local,
         m.dof_kind, m.dof_value, m.dof_hist, m.hist_ptr, m.hist_t, m.hist_a,
         state.body_work, state.body_damp, state.body_reaction, m.poisson_on,
-        *poisson_args(m, state))
+        *poisson_args(m, state), *_contact_args(m, state))
+
+
+def _contact_args(model, state, cs=None):
+    """(contact_on, overwrite, args) of run_dynamic / collide.contact_step;
+    typed empty arrays when the scene has no contact (one compiled kernel)."""
+    if model.contact is None:
+        return False, False, _NO_CONTACT
+    cs = state.contact if cs is None else cs
+    return True, model.n_springs == 0, cs.args(model.contact)
+
+
+_NO_CONTACT = (np.zeros((0, 2), np.int32), np.zeros((0, 3)), np.zeros((0, N_OUT)),
+               np.zeros(1, np.int64), np.zeros(0, np.int64), np.zeros(0), np.zeros((0, 6)),
+               np.zeros(1, np.int64), np.zeros(1, np.int64), np.zeros((0, 3)), np.zeros((0, 4)),
+               np.zeros(1, np.int64), np.zeros(0), np.zeros(0), np.zeros(0),
+               np.zeros(0, np.uint8), np.zeros(4), 0.0, 1.0, 0.0, np.zeros((1, 1, 3)))
 
 
 def synchronize(model, state, trial=None):
@@ -249,6 +284,8 @@ def run(case, model, recorder, *, max_steps=None, progress=None, chunk_steps=Non
         dt, est = choose_dt(case, model)
         state.dt = dt
         apply_initial(case, model, state)
+        if model.contact is not None:
+            rebuild(model, state, force=True)
         start_half_step(model, state)
     else:
         # the leapfrog's half-step state as saved: no start_half_step again
@@ -288,19 +325,26 @@ def run(case, model, recorder, *, max_steps=None, progress=None, chunk_steps=Non
                                load_amplitude(model, state.time))
 
     e_floor = ENERGY_FLOOR * float(np.sum(model.body_mass)) * c0 ** 2
+    most = [0.0]              # the most supplied so far
 
     def energy_runaway(obs, e0):
         """None, or why the run has diverged: the energy held and dissipated
         (kinetic + strain + plastic + fracture + damping) equals E0 + W in a
-        sane run; more than ENERGY_TOLERANCE × (E0 + |W|) + floor is an
-        instability, whatever absorbs it (module constants)."""
-        supplied = e0 + abs(obs["external_work"])
+        sane run; more than ENERGY_TOLERANCE × the largest E0 + |W| so far
+        (+ floor) is an instability, whatever absorbs it (module constants).
+        The largest so far: W can return to 0 (a block bouncing under
+        gravity at the top of its flight) while the balance keeps its small
+        error; an instability grows past any earlier bound."""
+        most[0] = max(most[0], e0 + abs(obs["external_work"]))
+        supplied = most[0]
         parts = {k: float(obs.get(k, 0.0)) for k in
-                 ("kinetic", "strain", "plastic", "fracture", "damping")}
+                 ("kinetic", "strain", "plastic", "fracture", "damping",
+                  "contact_friction")}
         total = sum(parts.values())
         if total <= ENERGY_TOLERANCE * supplied + e_floor:
             return None
-        return (f"kinetic + strain + plastic + fracture + damping energy {total:.4g} J "
+        return (f"kinetic + strain + plastic + fracture + damping (+ contact friction) "
+                f"energy {total:.4g} J "
                 f"({', '.join(f'{k} {v:.4g}' for k, v in parts.items())}) exceeds "
                 f"{ENERGY_TOLERANCE:g}× the initial energy plus |external work| "
                 f"({supplied:.4g} J)")
@@ -320,8 +364,11 @@ def run(case, model, recorder, *, max_steps=None, progress=None, chunk_steps=Non
               n_total, out_every, chunk_steps, (alpha, local), v_limit, dt, est, governor)
         ckpt.write(state, e0)
     wall = _time.perf_counter() - t_wall
+    warn = [quasi.warning()] if local and quasi.warning() else []
+    if model.contact is not None and state.contact.stiff_warning:
+        warn.append(state.contact.stiff_warning)
     return dict(steps=state.step, dt=dt, dt_estimate=est, wall_time=wall, state=state,
-                warnings=[quasi.warning()] if local and quasi.warning() else [])
+                warnings=warn)
 
 
 #: a quasi-static explicit run whose kinetic energy exceeds this fraction of
@@ -375,6 +422,12 @@ def _loop(model, state, recorder, progress, record, energy_runaway, ckpt, guard,
     while state.step < n_total:
         next_out = (state.step // out_every + 1) * out_every
         n = min(next_out, n_total, state.step + chunk_steps) - state.step
+        if model.contact is not None:
+            # the broad phase again when a cell has moved half the skin; a
+            # chunk short enough that none moves a quarter skin in it
+            if rebuild(model, state) and not state.contact.stiff_warning:
+                state.contact.stiff_warning = stiffness_check(model, state, dt, est)
+            n = min(n, contact_chunk(model, state, dt, model.gravity))
         advance(model, state, n, *damping)
         if governor is not None:
             governor.check()

@@ -10,7 +10,11 @@ Energies (output steps only, never per step):
   damping   energy dissipated by mass-proportional damping [J]
   plastic   dissipated by yield and by friction on closed cracks [J]
   fracture  dissipated by rupture and softening [J]
-Balance: kinetic + strain + damping + plastic + fracture
+  contact_friction  dissipated by Coulomb friction between cells in contact
+            (case ``contact``, physics/collide.py; the series exists only
+            in a run with contact, whose strain term then holds the
+            contacts' elastic energy too) [J]
+Balance: kinetic + strain + damping + plastic + fracture (+ contact_friction)
          = kinetic(0) + strain(0) + external.
 Cracks: n_broken (springs broken, open or in contact) and crack_area [m²]
 (their area); spring states per frame in springs/state when asked.
@@ -27,6 +31,7 @@ import numpy as np
 from .. import __version__
 from ..io.history import HistoryWriter
 from ..physics.rotation import quat_matrix_np, quat_mul_np
+from ..physics.collide import O_E
 from ..physics.inelastic import strain_energy
 from ..physics.laws import BROKEN
 from ..physics.poisson import poisson_energy
@@ -311,6 +316,8 @@ class Recorder:
         self.observables = {"kinetic": "J", "strain": "J", "external_work": "J",
                             "damping": "J", "plastic": "J", "fracture": "J",
                             "n_broken": "1", "crack_area": "m2"}
+        if m.contact is not None:
+            self.observables["contact_friction"] = "J"
         self.observables.update(dict(extra_observables))
         for name, unit in self.observables.items():
             w.add_series(f"observables/{name}", (), "f8", unit)
@@ -338,6 +345,8 @@ class Recorder:
         self.observables = {"kinetic": "J", "strain": "J", "external_work": "J",
                             "damping": "J", "plastic": "J", "fracture": "J",
                             "n_broken": "1", "crack_area": "m2"}
+        if model.contact is not None:
+            self.observables["contact_friction"] = "J"
         self.observables.update(dict(extra_observables))
         self.writer = HistoryWriter.reopen(path, frames=frames, lock=lock)
         self.writer.set_buffering(**frame_buffer(case))
@@ -355,18 +364,26 @@ class Recorder:
         if m.poisson_on:
             u += poisson_energy(m.poisson, state.body_pos, state.body_rot,
                                 state.spring_state, state.spring_dmg)
+        if m.contact is not None and state.contact is not None:
+            # the contacts' elastic energy at these positions (the pass that
+            # synchronised this frame, explicit.spring_pass)
+            u += float(np.sum(state.contact.out[:, O_E]))
         return u
 
     def spring_observables(self, state):
-        """Dissipated energies and crack measures of the springs now."""
+        """Dissipated energies and crack measures of the springs now (and
+        the friction of contacts between cells, in a run with contact)."""
         m = self.model
+        extra = ({"contact_friction": float(np.sum(state.contact.body_friction))}
+                 if m.contact is not None and state.contact is not None else {})
         if not m.inelastic:
-            return {"plastic": 0.0, "fracture": 0.0, "n_broken": 0.0, "crack_area": 0.0}
+            return {"plastic": 0.0, "fracture": 0.0, "n_broken": 0.0, "crack_area": 0.0,
+                    **extra}
         broken = state.spring_state >= BROKEN
         return {"plastic": float(np.sum(state.spring_wp)),
                 "fracture": float(np.sum(state.spring_wf)),
                 "n_broken": float(np.count_nonzero(broken)),
-                "crack_area": float(np.sum(m.spring_area[broken]))}
+                "crack_area": float(np.sum(m.spring_area[broken])), **extra}
 
     def probe_values(self, state, vel, omega, t, amp_load):
         m = self.model

@@ -1,0 +1,374 @@
+"""Contact between any cells: what the model holds, what a run carries, and
+the Python side of the broad phase (when to rebuild, how many steps a chunk
+may take).  Kernels: physics/collide.py and physics/contact_geometry.py;
+DESIGN.md §8.
+
+Built only when the scene asks (case ``contact``, or a rigid part given an
+initial velocity toward another part: contact_setting); otherwise
+Model.contact is None and nothing here runs.
+"""
+from dataclasses import dataclass, field
+
+import numba as nb
+import numpy as np
+
+from .physics.collide import N_OUT, O_K, body_pairs, broad_phase, carry_slip, neighbour_active
+from .physics.contact_geometry import SCRATCH_ROWS, planes_from_loops
+from .physics.rotation import quat_matrix_np
+
+#: a cell whose own vertices lie outside one of its face planes by more
+#: than this times its radius is not convex: contact takes its convex hull
+CONVEX_TOL = 1e-9
+
+
+def contact_setting(case, model):
+    """(pairs, friction, stiffness, damping, skin, ground) of the scene, or None:
+    the case's ``contact``; without one, contact (friction 0) between each
+    rigid part given an initial velocity toward another part (its centroid
+    moving toward that part's) and those parts.  pairs: "all" or a list of
+    [part_a, part_b]; ground: None or (point, normal)."""
+    c = case.contact
+    if c is not None:
+        ground = None if c.ground is None else (list(c.ground.point), list(c.ground.normal))
+        return c.between, c.friction, c.stiffness, c.damping, c.skin, ground
+    if case.solver.mode != "dynamic" or len(case.parts) < 2:
+        return None
+    centre = {name: model.body_pos0[model.groups[name]].mean(axis=0) for name in case.parts}
+    pairs = []
+    for item in case.initial:
+        part = case.parts.get(item.group)
+        if part is None or part.mesh.kind != "rigid" or not any(item.velocity):
+            continue
+        for other in case.parts:
+            if other != item.group and np.dot(centre[other] - centre[item.group],
+                                               item.velocity) > 0.0:
+                pairs.append([item.group, other])
+    return (pairs, 0.0, 1.0, 0.0, None, None) if pairs else None
+
+
+@dataclass(frozen=True)
+class ContactModel:
+    """Per cell (N): its faces' loops in its principal frame (CSR:
+    cell_face_ptr (N+1,) over faces, loop_ptr (F+1,) over loop rows,
+    loop_xyz (L, 3) [m], cell_loop_ptr (N+1,) the cell's loop rows),
+    face_plane (F, 4) outward unit normal and offset in that frame, radius
+    (N,) [m] of the bounding sphere about the centroid, body_e, body_g (N,)
+    [Pa] Young's and shear moduli, body_rigid (N,) uint8, body_part (N,)
+    int32 and allowed (P, P) uint8: the parts that may meet.  Springs:
+    nbr_key (K,) int64 the pairs a·(N+1) + b tied by springs, spring_pair
+    (S,) int32 each spring's row there (−1: support).  ground (4,) n, d of
+    the ground n·x ≤ d (has_ground), mu, kfac (stiffness factor), skin [m].
+    """
+    cell_face_ptr: np.ndarray
+    loop_ptr: np.ndarray
+    loop_xyz: np.ndarray
+    cell_loop_ptr: np.ndarray
+    face_plane: np.ndarray
+    radius: np.ndarray
+    body_e: np.ndarray
+    body_g: np.ndarray
+    body_rigid: np.ndarray
+    body_part: np.ndarray
+    allowed: np.ndarray
+    nbr_key: np.ndarray
+    spring_pair: np.ndarray
+    ground: np.ndarray
+    has_ground: bool
+    mu: float
+    kfac: float
+    zeta: float
+    skin: float
+    n_hull: int = 0           # cells replaced by their convex hulls
+
+
+def build_contact(case, model, setting):
+    """ContactModel of a built model and its contact_setting."""
+    from .case import scene_parts
+    pairs, mu, kfac, zeta, skin, ground = setting
+    mesh = model.mesh
+    n = model.n_bodies
+    cpp = np.asarray(mesh.cell_poly_ptr, dtype=np.int64)
+    pptr = np.asarray(mesh.poly_ptr, dtype=np.int64)
+    poly_cell = np.repeat(np.arange(n), np.diff(cpp))
+    row_cell = np.repeat(poly_cell, np.diff(pptr))
+    R0 = quat_matrix_np(model.body_quat0[:n])
+    world = mesh.vertices[np.asarray(mesh.poly_vertex, dtype=np.int64)]
+    local = np.einsum("nki,nk->ni", R0[row_cell], world - model.body_pos0[row_cell])
+    cpp, pptr, local, n_hull = _convex(cpp, pptr, local, n)
+    cell_loop_ptr = pptr[cpp]
+    plane = planes_from_loops(pptr, local)
+    dist = np.sqrt(np.einsum("ij,ij->i", local, local))
+    radius = np.maximum.reduceat(dist, cell_loop_ptr[:-1])
+
+    parts = scene_parts(case)
+    names = [p.name for p in parts]
+    body_part = (np.zeros(n, dtype=np.int32) if mesh.cell_part is None
+                 else np.asarray(mesh.cell_part, dtype=np.int32))
+    allowed = np.zeros((len(parts), len(parts)), dtype=np.uint8)
+    if pairs == "all":
+        allowed[:] = 1
+    else:
+        for pa, pb in pairs:
+            i, j = names.index(pa), names.index(pb)
+            allowed[i, j] = allowed[j, i] = 1
+    rigid = np.array([p.mesh.kind == "rigid" for p in parts])[body_part].astype(np.uint8)
+    young = np.array([m["young"] for m in model.materials])[model.body_material]
+    nu = np.array([m["poisson"] for m in model.materials])[model.body_material]
+
+    sb = model.spring_bodies.astype(np.int64)
+    inner = sb[:, 1] < n
+    keys = sb[:, 0] * (n + 1) + sb[:, 1]
+    nbr_key = np.unique(keys[inner])
+    spring_pair = np.where(inner, np.searchsorted(nbr_key, keys), -1).astype(np.int32)
+
+    g = np.zeros(4)
+    if ground is not None:
+        nrm = np.asarray(ground[1], float)
+        nrm = nrm / np.linalg.norm(nrm)
+        g[:3] = nrm
+        g[3] = float(nrm @ np.asarray(ground[0], float))
+    if skin is None:
+        # a fifth of the smallest deformable cell's size (V^⅓)
+        vol = model.body_volume[rigid == 0] if np.any(rigid == 0) else model.body_volume
+        skin = 0.2 * float(np.min(vol)) ** (1.0 / 3.0)
+    return ContactModel(
+        cell_face_ptr=cpp, loop_ptr=pptr, loop_xyz=np.ascontiguousarray(local),
+        cell_loop_ptr=np.ascontiguousarray(cell_loop_ptr), face_plane=plane,
+        radius=radius, body_e=young, body_g=young / (2.0 * (1.0 + nu)), body_rigid=rigid,
+        body_part=body_part, allowed=allowed, nbr_key=nbr_key, spring_pair=spring_pair,
+        ground=g, has_ground=ground is not None, mu=float(mu), kfac=float(kfac),
+        zeta=float(zeta),
+        skin=float(skin), n_hull=n_hull)
+
+
+@nb.njit(cache=True)
+def _nonconvex(cell_face_ptr, loop_ptr, cell_loop_ptr, loop_xyz, plane, radius, tol):
+    """(N,) bool: cells with a vertex outside one of their own face planes."""
+    n = cell_face_ptr.shape[0] - 1
+    bad = np.zeros(n, dtype=np.bool_)
+    for c in range(n):
+        lim = tol * radius[c]
+        for f in range(cell_face_ptr[c], cell_face_ptr[c + 1]):
+            for k in range(cell_loop_ptr[c], cell_loop_ptr[c + 1]):
+                x = (plane[f, 0] * loop_xyz[k, 0] + plane[f, 1] * loop_xyz[k, 1]
+                     + plane[f, 2] * loop_xyz[k, 2] - plane[f, 3])
+                if x > lim:
+                    bad[c] = True
+                    break
+            if bad[c]:
+                break
+    return bad
+
+
+def _convex(cpp, pptr, local, n):
+    """The loops with every non-convex cell (a clipped cell at a concave
+    corner of its solid, a non-convex rigid part) replaced by the triangles
+    of its convex hull (scipy's Qhull; a loop over those cells only)."""
+    cell_loop_ptr = pptr[cpp]
+    plane = planes_from_loops(pptr, local)
+    radius = np.maximum.reduceat(np.sqrt(np.einsum("ij,ij->i", local, local)),
+                                 cell_loop_ptr[:-1])
+    bad = _nonconvex(cpp, pptr, cell_loop_ptr, local, plane, radius, CONVEX_TOL)
+    if not np.any(bad):
+        return cpp, pptr, local, 0
+    from scipy.spatial import ConvexHull
+    n_faces = np.diff(cpp)
+    rows_per_face = np.diff(pptr)
+    face_bad = np.repeat(bad, n_faces)
+    keep_rows = np.repeat(~face_bad, rows_per_face)
+    faces_new = np.where(bad, 0, n_faces)
+    tri = []
+    for c in np.nonzero(bad)[0]:
+        pts = local[cell_loop_ptr[c]:cell_loop_ptr[c + 1]]
+        hull = ConvexHull(pts)
+        t = hull.simplices.copy()
+        # outward: counter-clockwise seen from outside (Qhull's normals)
+        e = np.cross(pts[t[:, 1]] - pts[t[:, 0]], pts[t[:, 2]] - pts[t[:, 0]])
+        flip = np.einsum("ij,ij->i", e, hull.equations[:, :3]) < 0
+        t[flip] = t[flip][:, ::-1]
+        tri.append((c, pts[t].reshape(-1, 3)))
+        faces_new[c] = len(t)
+    # cells in order: the kept faces of good cells, the hull triangles of bad ones
+    blocks_xyz, blocks_len = [], []
+    starts = cell_loop_ptr
+    hull_of = dict(tri)
+    # runs of consecutive good cells are copied at once
+    edges = np.flatnonzero(np.diff(np.r_[0, bad.astype(np.int8), 0]))
+    prev = 0
+    runs = []
+    for k in range(0, len(edges), 2):
+        runs.append((prev, edges[k]))
+        runs.append(("hull", edges[k], edges[k + 1]))
+        prev = edges[k + 1]
+    runs.append((prev, n))
+    for r in runs:
+        if r[0] == "hull":
+            for c in range(r[1], r[2]):
+                blocks_xyz.append(hull_of[c])
+                blocks_len.append(np.full(len(hull_of[c]) // 3, 3))
+        elif r[1] > r[0]:
+            blocks_xyz.append(local[starts[r[0]]:starts[r[1]]])
+            blocks_len.append(rows_per_face[cpp[r[0]]:cpp[r[1]]])
+    new_local = np.concatenate(blocks_xyz)
+    new_pptr = np.r_[0, np.cumsum(np.concatenate(blocks_len))].astype(np.int64)
+    new_cpp = np.r_[0, np.cumsum(faces_new)].astype(np.int64)
+    assert keep_rows.sum() + sum(len(x) for _, x in tri) == len(new_local)
+    return new_cpp, new_pptr, new_local, int(bad.sum())
+
+
+@dataclass
+class ContactState:
+    """What a run carries for contact: the candidate pairs (P, 2) int32,
+    their slip memory (P, 3) [m] and last results out (P, N_OUT), each
+    body's pairs (ptr, entry: collide.body_pairs), body_friction (N,) [J]
+    friction dissipated so far, the positions and orientations at the last
+    broad phase (x_build, q_build), per-thread scratch, builds so far."""
+    pairs: np.ndarray
+    slip: np.ndarray
+    out: np.ndarray
+    ptr: np.ndarray
+    entry: np.ndarray
+    body_friction: np.ndarray
+    body_dwrench: np.ndarray
+    x_build: np.ndarray
+    q_build: np.ndarray
+    scratch: np.ndarray
+    builds: int = 0
+    stiff_warning: str = field(default="")
+
+    def args(self, cm):
+        """The arguments of collide.contact_step after ``commit``."""
+        return (self.pairs, self.slip, self.out, self.ptr, self.entry, self.body_friction,
+                self.body_dwrench, cm.cell_face_ptr, cm.loop_ptr, cm.loop_xyz, cm.face_plane, cm.cell_loop_ptr,
+                cm.radius, cm.body_e, cm.body_g, cm.body_rigid, cm.ground, cm.mu, cm.kfac,
+                cm.zeta, self.scratch)
+
+    def trial(self):
+        """A copy whose commits (slip, friction) do not touch this one."""
+        return ContactState(self.pairs, self.slip.copy(), self.out.copy(), self.ptr,
+                            self.entry, self.body_friction.copy(), self.body_dwrench.copy(),
+                            self.x_build, self.q_build, self.scratch, self.builds)
+
+
+def new_contact_state(model):
+    cm = model.contact
+    n = model.n_bodies
+    nblk = max(1, nb.get_num_threads())
+    max_rows = int(np.max(np.diff(cm.cell_loop_ptr))) if n else 0
+    max_faces = int(np.max(np.diff(cm.cell_face_ptr))) if n else 0
+    return ContactState(
+        pairs=np.zeros((0, 2), dtype=np.int32), slip=np.zeros((0, 3)), out=np.zeros((0, N_OUT)),
+        ptr=np.zeros(n + 1, dtype=np.int64), entry=np.zeros(0, dtype=np.int64),
+        body_friction=np.zeros(n), body_dwrench=np.zeros((n, 6)), x_build=np.full((n, 3), np.inf), q_build=np.zeros((n, 4)),
+        scratch=np.zeros((nblk, SCRATCH_ROWS(max_rows, max_faces), 3)))
+
+
+def rebuild(model, state, force=False):
+    """Broad phase again when some cell has moved more than half the skin
+    since the last one (its centroid, plus its radius times the angle it
+    has turned), or when `force`.  Returns True when it ran."""
+    cm = model.contact
+    cs = state.contact
+    n = model.n_bodies
+    if not force and cs.builds:
+        moved = np.linalg.norm(state.body_pos[:n] - cs.x_build, axis=1)
+        dot = np.abs(np.einsum("ij,ij->i", state.body_quat[:n], cs.q_build))
+        moved += cm.radius * 2.0 * np.arccos(np.minimum(dot, 1.0))
+        if moved.max(initial=0.0) <= 0.5 * cm.skin:
+            return False
+    active = neighbour_active(cm.spring_pair, len(cm.nbr_key), model.inelastic,
+                              state.spring_kappa)
+    pairs = broad_phase(state.body_pos, cm.radius, cm.skin, cm.body_part, cm.allowed,
+                        cm.nbr_key, active, cm.ground, cm.has_ground)
+    cs.slip = carry_slip(cs.pairs, cs.slip, pairs, n)
+    cs.pairs = pairs
+    cs.out = np.zeros((len(pairs), N_OUT))
+    cs.ptr, cs.entry = body_pairs(pairs, n)
+    cs.x_build = state.body_pos[:n].copy()
+    cs.q_build = state.body_quat[:n].copy()
+    cs.builds += 1
+    return True
+
+
+def chunk_steps(model, state, dt, gravity):
+    """Steps the run may take before the next broad-phase check: no cell
+    moves more than a quarter skin, at its present speed (centroid plus
+    radius × spin) and acceleration (its last wrench and gravity)."""
+    cm = model.contact
+    n = model.n_bodies
+    R = state.body_rot[:n]
+    L = state.body_angmom[:n]
+    wb = np.einsum("nki,nk->ni", R, L) / model.body_inertia
+    spin = np.linalg.norm(wb, axis=1)
+    v = np.linalg.norm(state.body_vel[:n], axis=1) + spin * cm.radius
+    a = (np.linalg.norm(state.body_wrench[:n, :3], axis=1) / model.body_mass
+         + float(np.linalg.norm(gravity)))
+    vmax, amax = float(v.max(initial=0.0)), float(a.max(initial=0.0))
+    room = 0.25 * cm.skin
+    # vmax t + ½ amax t² = room
+    if amax > 0:
+        t = (-vmax + np.sqrt(vmax * vmax + 2.0 * amax * room)) / amax
+    elif vmax > 0:
+        t = room / vmax
+    else:
+        return 1 << 30
+    return max(1, int(t / dt))
+
+
+def stiffness_check(model, state, dt, est):
+    """The stable step with the present contacts (Weyl: λ_max(K_s + K_c) ≤
+    λ_s + λ_c; λ_s = (2/est)², λ_c ≤ the largest 2 k (1/m_a + r_a²/I_a +
+    1/m_b + r_b²/I_b) of a closed pair, r the lever of its point): a
+    message when dt exceeds it, else ""."""
+    cs = state.contact
+    if not len(cs.pairs):
+        return ""
+    k = cs.out[:, O_K]
+    on = k > 0
+    if not np.any(on):
+        return ""
+    n = model.n_bodies
+    a = cs.pairs[on, 0]
+    b = cs.pairs[on, 1]
+    c = cs.out[on, 3:6]
+    imin = model.body_inertia.min(axis=1)
+    ra = np.sum((c - state.body_pos[a]) ** 2, axis=1)
+    lam = 1.0 / model.body_mass[a] + ra / imin[a]
+    inner = b < n
+    bi = b[inner]
+    rb = np.sum((c[inner] - state.body_pos[bi]) ** 2, axis=1)
+    lam[inner] += 1.0 / model.body_mass[bi] + rb / imin[bi]
+    lam_c = float(np.max(2.0 * k[on] * lam))
+    lam_s = (2.0 / est) ** 2 if np.isfinite(est) and est > 0 else 0.0
+    limit = 2.0 / np.sqrt(lam_s + lam_c)
+    if dt <= limit:
+        return ""
+    return (f"contact stiffness lowers the stable step bound to {limit:.4g} s at "
+            f"t = {state.time:.6g} s (dt = {dt:.4g} s): lower contact.stiffness or "
+            "solver.dt_safety if the run diverges")
+
+
+def contact_stable_dt(model):
+    """A stable step bound [s] for a model whose only stiffness is contact
+    (no springs: rigid blocks on the ground): each cell against a rigid
+    partner over at most half its surface (the largest area a convex cell
+    can press on: its projection, ≤ S/2), the penalty kfac E/l with l its
+    smallest half-width, at a lever of its radius:
+    ω² ≤ 2 k (S/2) (1/m + r²/I_min) (the Gershgorin form of stiffness_check)."""
+    cm = model.contact
+    n = model.n_bodies
+    loc = cm.loop_xyz
+    starts = cm.cell_loop_ptr[:-1]
+    half = 0.5 * (np.maximum.reduceat(loc, starts, axis=0)
+                  - np.minimum.reduceat(loc, starts, axis=0)).min(axis=1)
+    # vector area of each loop: ½ Σ x_i × x_i+1 (Newell), its length summed per cell
+    nxt = np.arange(len(loc)) + 1
+    ends = cm.loop_ptr[1:] - 1
+    nxt[ends] = cm.loop_ptr[:-1]
+    va = 0.5 * np.add.reduceat(np.cross(loc, loc[nxt]), cm.loop_ptr[:-1], axis=0)
+    area = np.add.reduceat(np.linalg.norm(va, axis=1), cm.cell_face_ptr[:-1])
+    k = cm.kfac * cm.body_e / half
+    lam = 2.0 * k * 0.5 * area * (1.0 / model.body_mass
+                                  + cm.radius ** 2 / model.body_inertia.min(axis=1))
+    lam_max = float(lam.max(initial=0.0)) if n else 0.0
+    return np.inf if lam_max <= 0 else 2.0 / np.sqrt(lam_max)

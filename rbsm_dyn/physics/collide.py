@@ -1,0 +1,451 @@
+"""Contact between any cells (DESIGN.md §8): broad phase, pair forces, gather.
+
+A scene that asks for contact (case ``contact``, contact_model.py) gets, on
+top of its springs, a penalty contact between every pair of convex cells
+that overlap and are not tied by springs (intact, or broken and still
+close: those act as contact on their own face, physics/inelastic.py), and
+between cells and a fixed ground half-space.
+
+* Broad phase (``broad_phase``, serial, compiled): each cell's bounding
+  sphere (radius r about its centroid) inflated by half the skin, sorted
+  along the axis of largest spread and swept (sort and sweep: Baraff 1992,
+  "Dynamic simulation of non-penetrating rigid bodies", §6.2; Cohen et al.
+  1995, I-COLLIDE); candidate pairs (a < b, b = N for the ground) in
+  ascending (a, b), whatever the thread count.  Rebuilt when some cell has
+  moved (its centroid, plus r times its turn) more than half the skin since
+  the last build (contact_model.ContactDriver).
+* Narrow phase (physics/contact_geometry.py): the overlap polytope P = A ∩ B
+  of the two cells, its volume V, centroid c, and S_B, the outward area
+  vector of the part of P's boundary on B's faces (the direction B pushes
+  A; |S_B| = A_c, the contact area).
+* Force (``contact_forces``, one pair per iteration, independent): normal
+  n = S_B/A_c, mean depth d = V/A_c, a layer of the two half-cells in
+  series (l_a/E_a + l_b/E_b per area, l the half-width of each cell along
+  n; the stiffness of an internal face of the same cells, so a wave crosses
+  a closed contact as it crosses the face: Kawai 1978 eq. 7 form), times
+  ``stiffness``: F_n = k_n A_c d.  Tangential: an elastic slip spring
+  k_t = A_c/(l_a/G_a + l_b/G_b) on the relative displacement at c,
+  integrated from the half-step velocities, returned to the Coulomb cone
+  |F_t| ≤ μ F_n with the excess as slip (Cundall & Strack 1979, the broken
+  spring's law, laws/contact.py); the slip memory is kept per pair while
+  the pair stays in the candidate list.  Both forces act at c on A, their
+  opposites at c on B: momentum and angular momentum are conserved to
+  round-off.  Energy: ½ F_n d + ½ k_t |u|² is elastic (the strain term),
+  μ F_n |Δslip| is dissipated (the contact_friction observable).
+* Gather (``contact_gather``): per body, its pairs in pair order (a CSR
+  built with the pairs), added to its wrench: no atomics, the same sums for
+  any thread count.
+"""
+import math
+
+import numba as nb
+import numpy as np
+
+from .contact_geometry import overlap, overlap_halfspace
+
+JIT = dict(cache=True, nogil=True, fastmath=False, error_model="numpy")
+
+# columns of the per-pair result ``out`` (P, N_OUT)
+O_F = 0          # force on a [N] (world), 3 columns
+O_C = 3          # point of action c [m] (world), 3 columns
+O_E = 6          # elastic energy of the pair [J]
+O_W = 7          # friction dissipation of this step [J]
+O_A = 8          # contact area [m²] (0: not touching)
+O_K = 9          # normal stiffness k_n A_c [N/m]
+O_D = 10         # dashpot force on a [N] (world), 3 columns (part of O_F)
+N_OUT = 13
+
+
+@nb.njit(**JIT)
+def neighbour_active(spring_pair, n_keys, inelastic, spring_kappa):
+    """(K,) uint8: 1 for a pair of cells tied by springs that still act
+    (any spring of the pair intact, or broken and not parted: spring_kappa
+    < inf, physics/inelastic.py); such pairs are left to their springs."""
+    act = np.zeros(n_keys, dtype=np.uint8)
+    for s in range(spring_pair.shape[0]):
+        k = spring_pair[s]
+        if k < 0:
+            continue
+        if not inelastic or spring_kappa[s] != np.inf:
+            act[k] = 1
+    return act
+
+
+@nb.njit(**JIT)
+def broad_phase(body_pos, radius, skin, body_part, allowed, nbr_key, nbr_active,
+                ground, has_ground):
+    """Candidate pairs (P, 2) int32 in ascending (a, b): bodies whose
+    spheres (radius + skin/2) overlap, whose parts may meet (allowed), and
+    that are not neighbours with acting springs; (i, N) for a body within
+    r + skin/2 of the ground plane n·x = d (ground (4,) = n, d)."""
+    n = radius.shape[0]
+    if n == 0:
+        return np.zeros((0, 2), dtype=np.int32)
+    # axis of largest spread of the centres
+    ax = 0
+    best = -1.0
+    for k in range(3):
+        lo = np.inf
+        hi = -np.inf
+        for i in range(n):
+            x = body_pos[i, k]
+            lo = min(lo, x)
+            hi = max(hi, x)
+        if hi - lo > best:
+            best = hi - lo
+            ax = k
+    h = 0.5 * skin
+    low = np.empty(n)
+    for i in range(n):
+        low[i] = body_pos[i, ax] - radius[i] - h
+    order = np.argsort(low, kind="mergesort")
+    cap = 8 * n + 16
+    out = np.empty((cap, 2), dtype=np.int32)
+    m = 0
+    nk = np.int64(n + 1)
+    for ii in range(n):
+        i = order[ii]
+        top = body_pos[i, ax] + radius[i] + h
+        for jj in range(ii + 1, n):
+            j = order[jj]
+            if low[j] > top:
+                break
+            if allowed[body_part[i], body_part[j]] == 0:
+                continue
+            reach = radius[i] + radius[j] + skin
+            d0 = body_pos[j, 0] - body_pos[i, 0]
+            d1 = body_pos[j, 1] - body_pos[i, 1]
+            d2 = body_pos[j, 2] - body_pos[i, 2]
+            if d0 * d0 + d1 * d1 + d2 * d2 > reach * reach:
+                continue
+            a = min(i, j)
+            b = max(i, j)
+            key = a * nk + b
+            pos = np.searchsorted(nbr_key, key)
+            if pos < nbr_key.shape[0] and nbr_key[pos] == key and nbr_active[pos]:
+                continue
+            if m == cap:
+                cap *= 2
+                grown = np.empty((cap, 2), dtype=np.int32)
+                grown[:m] = out[:m]
+                out = grown
+            out[m, 0] = a
+            out[m, 1] = b
+            m += 1
+    if has_ground:
+        for i in range(n):
+            dist = (ground[0] * body_pos[i, 0] + ground[1] * body_pos[i, 1]
+                    + ground[2] * body_pos[i, 2] - ground[3])
+            if dist <= radius[i] + h:
+                if m == cap:
+                    cap *= 2
+                    grown = np.empty((cap, 2), dtype=np.int32)
+                    grown[:m] = out[:m]
+                    out = grown
+                out[m, 0] = i
+                out[m, 1] = n
+                m += 1
+    keys = np.empty(m, dtype=np.int64)
+    for p in range(m):
+        keys[p] = out[p, 0] * nk + out[p, 1]
+    srt = np.argsort(keys, kind="mergesort")
+    pairs = np.empty((m, 2), dtype=np.int32)
+    for p in range(m):
+        pairs[p, 0] = out[srt[p], 0]
+        pairs[p, 1] = out[srt[p], 1]
+    return pairs
+
+
+@nb.njit(**JIT)
+def carry_slip(old_pairs, old_slip, pairs, n):
+    """Slip memory (P, 3) of the new pair list: a pair that was in the old
+    list keeps its slip (both lists ascending in (a, b)), a new one starts
+    at 0."""
+    slip = np.zeros((pairs.shape[0], 3))
+    nk = np.int64(n + 1)
+    j = 0
+    for p in range(pairs.shape[0]):
+        key = pairs[p, 0] * nk + pairs[p, 1]
+        while j < old_pairs.shape[0] and old_pairs[j, 0] * nk + old_pairs[j, 1] < key:
+            j += 1
+        if j < old_pairs.shape[0] and old_pairs[j, 0] * nk + old_pairs[j, 1] == key:
+            slip[p, 0] = old_slip[j, 0]
+            slip[p, 1] = old_slip[j, 1]
+            slip[p, 2] = old_slip[j, 2]
+    return slip
+
+
+@nb.njit(**JIT)
+def body_pairs(pairs, n):
+    """CSR of each body's pairs, in pair order: ptr (N+1,), entry (E,) =
+    2 p for body a of pair p, 2 p + 1 for body b (ground pairs: a only)."""
+    ptr = np.zeros(n + 1, dtype=np.int64)
+    for p in range(pairs.shape[0]):
+        ptr[pairs[p, 0] + 1] += 1
+        if pairs[p, 1] < n:
+            ptr[pairs[p, 1] + 1] += 1
+    for i in range(n):
+        ptr[i + 1] += ptr[i]
+    fill = ptr[:-1].copy()
+    entry = np.empty(ptr[n], dtype=np.int64)
+    for p in range(pairs.shape[0]):
+        a = pairs[p, 0]
+        entry[fill[a]] = 2 * p
+        fill[a] += 1
+        b = pairs[p, 1]
+        if b < n:
+            entry[fill[b]] = 2 * p + 1
+            fill[b] += 1
+    return ptr, entry
+
+
+@nb.njit(inline="always", **JIT)
+def _half_width(c, R, n0, n1, n2, cell_loop_ptr, loop_xyz):
+    """Half the extent of cell c along the world direction n (its loop
+    vertices turned by R)."""
+    # n in the body frame: Rᵀ n
+    m0 = R[0, 0] * n0 + R[1, 0] * n1 + R[2, 0] * n2
+    m1 = R[0, 1] * n0 + R[1, 1] * n1 + R[2, 1] * n2
+    m2 = R[0, 2] * n0 + R[1, 2] * n1 + R[2, 2] * n2
+    lo = np.inf
+    hi = -np.inf
+    for k in range(cell_loop_ptr[c], cell_loop_ptr[c + 1]):
+        x = m0 * loop_xyz[k, 0] + m1 * loop_xyz[k, 1] + m2 * loop_xyz[k, 2]
+        lo = min(lo, x)
+        hi = max(hi, x)
+    return 0.5 * (hi - lo)
+
+
+@nb.njit(inline="always", **JIT)
+def _spin(i, body_rot, body_angmom, body_inertia):
+    """World angular velocity ω = R I⁻¹ Rᵀ L of body i (principal axes)."""
+    R = body_rot[i]
+    L0, L1, L2 = body_angmom[i, 0], body_angmom[i, 1], body_angmom[i, 2]
+    b0 = (R[0, 0] * L0 + R[1, 0] * L1 + R[2, 0] * L2) / body_inertia[i, 0]
+    b1 = (R[0, 1] * L0 + R[1, 1] * L1 + R[2, 1] * L2) / body_inertia[i, 1]
+    b2 = (R[0, 2] * L0 + R[1, 2] * L1 + R[2, 2] * L2) / body_inertia[i, 2]
+    return (R[0, 0] * b0 + R[0, 1] * b1 + R[0, 2] * b2,
+            R[1, 0] * b0 + R[1, 1] * b1 + R[1, 2] * b2,
+            R[2, 0] * b0 + R[2, 1] * b1 + R[2, 2] * b2)
+
+
+@nb.njit(**JIT)
+def _pair_force(p, pairs, slip, out, dt, body_pos, body_rot, body_vel, body_angmom,
+                body_inertia, body_mass, cell_face_ptr, loop_ptr, loop_xyz, face_plane,
+                cell_loop_ptr, radius, body_e, body_g, body_rigid, ground, mu, kfac, zeta,
+                scratch):
+    n = radius.shape[0]
+    a = pairs[p, 0]
+    b = pairs[p, 1]
+    for k in range(N_OUT):
+        out[p, k] = 0.0
+    if b == n:
+        vol, c0, c1, c2, s0, s1, s2, area = overlap_halfspace(
+            a, body_pos[a], body_rot[a], ground[:3], ground[3], cell_face_ptr, loop_ptr,
+            loop_xyz, face_plane, radius, scratch)
+    else:
+        vol, c0, c1, c2, s0, s1, s2, area = overlap(
+            a, body_pos[a], body_rot[a], b, body_pos[b], body_rot[b], cell_face_ptr,
+            loop_ptr, loop_xyz, face_plane, radius, scratch)
+    if not (vol > 0.0 and area > 0.0):
+        slip[p, 0] = slip[p, 1] = slip[p, 2] = 0.0
+        return
+    n0, n1, n2 = s0 / area, s1 / area, s2 / area
+    depth = vol / area
+    # the two half-cells in series along n (a rigid cell adds nothing,
+    # unless both are rigid; the ground adds nothing)
+    la = _half_width(a, body_rot[a], n0, n1, n2, cell_loop_ptr, loop_xyz)
+    cn = la / body_e[a]
+    ct = la / body_g[a]
+    both_rigid = body_rigid[a] != 0 and (b == n or body_rigid[b] != 0)
+    if body_rigid[a] != 0 and not both_rigid:
+        cn = ct = 0.0
+    if b < n and (body_rigid[b] == 0 or both_rigid):
+        lb = _half_width(b, body_rot[b], n0, n1, n2, cell_loop_ptr, loop_xyz)
+        cn += lb / body_e[b]
+        ct += lb / body_g[b]
+    kn = kfac * area / cn
+    kt = kfac * area / ct
+    fn = kn * depth
+    # relative velocity of a's material point at c against b's (half step)
+    wa0, wa1, wa2 = _spin(a, body_rot, body_angmom, body_inertia)
+    ra0, ra1, ra2 = c0 - body_pos[a, 0], c1 - body_pos[a, 1], c2 - body_pos[a, 2]
+    v0 = body_vel[a, 0] + wa1 * ra2 - wa2 * ra1
+    v1 = body_vel[a, 1] + wa2 * ra0 - wa0 * ra2
+    v2 = body_vel[a, 2] + wa0 * ra1 - wa1 * ra0
+    if b < n:
+        wb0, wb1, wb2 = _spin(b, body_rot, body_angmom, body_inertia)
+        rb0, rb1, rb2 = c0 - body_pos[b, 0], c1 - body_pos[b, 1], c2 - body_pos[b, 2]
+        v0 -= body_vel[b, 0] + wb1 * rb2 - wb2 * rb1
+        v1 -= body_vel[b, 1] + wb2 * rb0 - wb0 * rb2
+        v2 -= body_vel[b, 2] + wb0 * rb1 - wb1 * rb0
+    vn = v0 * n0 + v1 * n1 + v2 * n2
+    fd = 0.0
+    if zeta > 0.0:
+        # normal dashpot 2ζ√(k m*) (m* = m_a m_b/(m_a + m_b), the ground
+        # infinitely heavy), never pulling: F_n ≥ 0 (Cundall & Strack 1979)
+        ms = body_mass[a] if b == n else body_mass[a] * body_mass[b] / (
+            body_mass[a] + body_mass[b])
+        fd = -2.0 * zeta * math.sqrt(kn * ms) * vn
+        if fn + fd < 0.0:
+            fd = -fn
+        fn += fd
+    # slip spring: the old one turned into the present tangent plane
+    # (projected, its length kept), plus the tangential motion of the step
+    u0, u1, u2 = slip[p, 0], slip[p, 1], slip[p, 2]
+    un = u0 * n0 + u1 * n1 + u2 * n2
+    old = math.sqrt(u0 * u0 + u1 * u1 + u2 * u2)
+    u0 -= un * n0
+    u1 -= un * n1
+    u2 -= un * n2
+    new = math.sqrt(u0 * u0 + u1 * u1 + u2 * u2)
+    if new > 0.0:
+        u0 *= old / new
+        u1 *= old / new
+        u2 *= old / new
+    u0 += (v0 - vn * n0) * dt
+    u1 += (v1 - vn * n1) * dt
+    u2 += (v2 - vn * n2) * dt
+    f0, f1, f2 = -kt * u0, -kt * u1, -kt * u2
+    ft = math.sqrt(f0 * f0 + f1 * f1 + f2 * f2)
+    fmax = mu * fn
+    diss = 0.0
+    if ft > fmax:
+        r = fmax / ft if ft > 0.0 else 0.0
+        # the slip takes the excess (return to the Coulomb cone)
+        diss = fmax * (ft - fmax) / kt
+        f0 *= r
+        f1 *= r
+        f2 *= r
+        u0 *= r
+        u1 *= r
+        u2 *= r
+    slip[p, 0] = u0
+    slip[p, 1] = u1
+    slip[p, 2] = u2
+    out[p, O_F] = fn * n0 + f0
+    out[p, O_F + 1] = fn * n1 + f1
+    out[p, O_F + 2] = fn * n2 + f2
+    out[p, O_C] = c0
+    out[p, O_C + 1] = c1
+    out[p, O_C + 2] = c2
+    out[p, O_E] = 0.5 * kn * depth * depth + 0.5 * kt * (u0 * u0 + u1 * u1 + u2 * u2)
+    out[p, O_W] = diss
+    out[p, O_A] = area
+    out[p, O_K] = kn
+    out[p, O_D] = fd * n0
+    out[p, O_D + 1] = fd * n1
+    out[p, O_D + 2] = fd * n2
+
+
+@nb.njit(parallel=True, **JIT)
+def contact_forces(pairs, slip, out, dt, body_pos, body_rot, body_vel, body_angmom,
+                   body_inertia, body_mass, cell_face_ptr, loop_ptr, loop_xyz, face_plane,
+                   cell_loop_ptr, radius, body_e, body_g, body_rigid, ground, mu, kfac, zeta,
+                   scratch):
+    """Force of every candidate pair (see module) into ``out`` (P, N_OUT),
+    slip memory updated in ``slip``.  Pairs split into len(scratch) equal
+    blocks, one per block of scratch: each pair's result depends on it
+    alone, so any thread count gives the same numbers."""
+    n_pairs = pairs.shape[0]
+    nblk = scratch.shape[0]
+    for t in nb.prange(nblk):
+        p0 = t * n_pairs // nblk
+        p1 = (t + 1) * n_pairs // nblk
+        for p in range(p0, p1):
+            _pair_force(p, pairs, slip, out, dt, body_pos, body_rot, body_vel, body_angmom,
+                        body_inertia, body_mass, cell_face_ptr, loop_ptr, loop_xyz,
+                        face_plane, cell_loop_ptr, radius, body_e, body_g, body_rigid, ground,
+                        mu, kfac, zeta, scratch[t])
+
+
+@nb.njit(parallel=True, **JIT)
+def contact_gather(ptr, entry, pairs, out, dt, body_pos, body_vel, body_angmom, body_rot,
+                   body_inertia, body_wrench, body_damp, body_friction, body_dwrench,
+                   overwrite, commit):
+    """Add each body's contact forces and their moments about its centre
+    (pair order) to body_wrench (overwrite: set it, for a model without
+    springs); with ``commit``, book the step's friction dissipation, half to
+    each body of a pair (all to the body on the ground), and the dashpots'
+    work: the leapfrog's kinetic energy changes by f_n·(v_n-½ + v_n+½) dt/2
+    (Belytschko, Liu & Moran 2000, §6.2.4), so the dashpot wrench D_n of a
+    body (kept in body_dwrench) is booked half with the velocities before
+    the step and half with those after it, at the next step."""
+    n = ptr.shape[0] - 1
+    for i in nb.prange(n):
+        w0 = w1 = w2 = w3 = w4 = w5 = 0.0
+        d0 = d1 = d2 = d3 = d4 = d5 = 0.0
+        wf = 0.0
+        for e in range(ptr[i], ptr[i + 1]):
+            p = entry[e] >> 1
+            sgn = 1.0 if (entry[e] & 1) == 0 else -1.0
+            f0 = sgn * out[p, O_F]
+            f1 = sgn * out[p, O_F + 1]
+            f2 = sgn * out[p, O_F + 2]
+            r0 = out[p, O_C] - body_pos[i, 0]
+            r1 = out[p, O_C + 1] - body_pos[i, 1]
+            r2 = out[p, O_C + 2] - body_pos[i, 2]
+            w0 += f0
+            w1 += f1
+            w2 += f2
+            w3 += r1 * f2 - r2 * f1
+            w4 += r2 * f0 - r0 * f2
+            w5 += r0 * f1 - r1 * f0
+            # friction: half to each body, all to a body on the ground
+            wf += out[p, O_W] * (1.0 if pairs[p, 1] == n else 0.5)
+            g0 = sgn * out[p, O_D]
+            g1 = sgn * out[p, O_D + 1]
+            g2 = sgn * out[p, O_D + 2]
+            d0 += g0
+            d1 += g1
+            d2 += g2
+            d3 += r1 * g2 - r2 * g1
+            d4 += r2 * g0 - r0 * g2
+            d5 += r0 * g1 - r1 * g0
+        if overwrite:
+            body_wrench[i, 0] = w0
+            body_wrench[i, 1] = w1
+            body_wrench[i, 2] = w2
+            body_wrench[i, 3] = w3
+            body_wrench[i, 4] = w4
+            body_wrench[i, 5] = w5
+        else:
+            body_wrench[i, 0] += w0
+            body_wrench[i, 1] += w1
+            body_wrench[i, 2] += w2
+            body_wrench[i, 3] += w3
+            body_wrench[i, 4] += w4
+            body_wrench[i, 5] += w5
+        if commit:
+            body_friction[i] += wf
+            o0, o1, o2 = _spin(i, body_rot, body_angmom, body_inertia)
+            q = body_dwrench[i]
+            body_damp[i] -= 0.5 * dt * ((q[0] + d0) * body_vel[i, 0] + (q[1] + d1) * body_vel[i, 1]
+                                        + (q[2] + d2) * body_vel[i, 2] + (q[3] + d3) * o0
+                                        + (q[4] + d4) * o1 + (q[5] + d5) * o2)
+            q[0], q[1], q[2], q[3], q[4], q[5] = d0, d1, d2, d3, d4, d5
+
+
+@nb.njit(**JIT)
+def contact_step(dt, body_pos, body_rot, body_vel, body_angmom, body_inertia, body_mass,
+                 body_wrench, body_damp, overwrite, commit, pairs, slip, out, ptr, entry,
+                 body_friction, body_dwrench, cell_face_ptr, loop_ptr, loop_xyz, face_plane, cell_loop_ptr,
+                 radius, body_e, body_g, body_rigid, ground, mu, kfac, zeta, scratch):
+    """One step's contact: the pair forces, then each body's sum added to
+    its wrench (the arguments after ``commit``: contact_model.ContactState
+    .args)."""
+    if pairs.shape[0] == 0:
+        if overwrite:
+            body_wrench[:] = 0.0
+        if commit:
+            contact_gather(ptr, entry, pairs, out, dt, body_pos, body_vel, body_angmom,
+                           body_rot, body_inertia, body_wrench, body_damp, body_friction,
+                           body_dwrench, False, commit)
+        return
+    contact_forces(pairs, slip, out, dt, body_pos, body_rot, body_vel, body_angmom,
+                   body_inertia, body_mass, cell_face_ptr, loop_ptr, loop_xyz, face_plane,
+                   cell_loop_ptr, radius, body_e, body_g, body_rigid, ground, mu, kfac, zeta,
+                   scratch)
+    contact_gather(ptr, entry, pairs, out, dt, body_pos, body_vel, body_angmom, body_rot,
+                   body_inertia, body_wrench, body_damp, body_friction, body_dwrench,
+                   overwrite, commit)
