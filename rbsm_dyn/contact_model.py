@@ -174,8 +174,6 @@ def _convex(cpp, pptr, local, n):
     from scipy.spatial import ConvexHull
     n_faces = np.diff(cpp)
     rows_per_face = np.diff(pptr)
-    face_bad = np.repeat(bad, n_faces)
-    keep_rows = np.repeat(~face_bad, rows_per_face)
     faces_new = np.where(bad, 0, n_faces)
     tri = []
     for c in np.nonzero(bad)[0]:
@@ -212,7 +210,6 @@ def _convex(cpp, pptr, local, n):
     new_local = np.concatenate(blocks_xyz)
     new_pptr = np.r_[0, np.cumsum(np.concatenate(blocks_len))].astype(np.int64)
     new_cpp = np.r_[0, np.cumsum(faces_new)].astype(np.int64)
-    assert keep_rows.sum() + sum(len(x) for _, x in tri) == len(new_local)
     return new_cpp, new_pptr, new_local, int(bad.sum())
 
 

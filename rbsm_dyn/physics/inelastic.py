@@ -26,8 +26,10 @@ A broken spring is a contact (contact.py) until its gap |δ| exceeds the
 spring length h (opened, slid or turned by a whole cell): then the two
 cells have parted and the pair is never in contact again (spring_kappa =
 inf marks it), so fragments that fly and tumble do not push through a face
-they no longer share.  Sliding by more than h along a crack is beyond this
-pairwise contact (it would need contact detection between new partners).
+they no longer share.  From there, contact between the two cells (and
+with any new partner: sliding by more than h along a crack, fragments) is
+the case key ``contact`` (physics/collide.py), which leaves alone every
+pair whose springs still act.
 """
 import math
 
