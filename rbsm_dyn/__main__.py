@@ -468,6 +468,16 @@ def _selections(case, model):
             out.append(f"surface {name}: {cnt[i]} faces, {area[i]:.6g} m²")
     for name, ids in (model.groups or {}).items():
         out.append(f"group {name}: {len(ids)} bodies" + ("  (selects none)" if len(ids) == 0 else ""))
+    cm = model.contact
+    if cm is not None:
+        given = case.contact is not None
+        between = ("all" if case.contact.between == "all" else
+                   ", ".join("–".join(p) for p in case.contact.between)) if given else \
+            "rigid parts moving toward others (no contact key: automatic)"
+        out.append(f"contact between {between}: friction {cm.mu:g}, stiffness × {cm.kfac:g}, "
+                   f"damping {cm.zeta:g}, skin {cm.skin:.4g} m"
+                   + (f", ground n = [{', '.join(f'{x:g}' for x in cm.ground[:3])}] at "
+                      f"n·x = {cm.ground[3]:g} m" if cm.has_ground else ""))
     return out
 
 

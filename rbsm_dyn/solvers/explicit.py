@@ -413,6 +413,13 @@ class QuasiStaticCheck:
                 f"solver.end_time and load history) or raise solver.damping.local")
 
 
+def _contact_hint(model, state):
+    """The contacts' stable-step message for a divergence, or ""."""
+    if model.contact is None or not state.contact.stiff_warning:
+        return ""
+    return f" ({state.contact.stiff_warning})"
+
+
 def _loop(model, state, recorder, progress, record, energy_runaway, ckpt, guard, e0,
           n_total, out_every, chunk_steps, damping, v_limit, dt, est, governor=None):
     obs = {}
@@ -425,10 +432,12 @@ def _loop(model, state, recorder, progress, record, energy_runaway, ckpt, guard,
         if model.contact is not None:
             # the broad phase again when a cell has moved half the skin; a
             # chunk short enough that none moves a quarter skin in it
-            if rebuild(model, state) and not state.contact.stiff_warning:
-                state.contact.stiff_warning = stiffness_check(model, state, dt, est)
+            rebuild(model, state)
             n = min(n, contact_chunk(model, state, dt, model.gravity))
         advance(model, state, n, *damping)
+        if model.contact is not None and not state.contact.stiff_warning:
+            # the stable step with the contacts the chunk ended with
+            state.contact.stiff_warning = stiffness_check(model, state, dt, est)
         if governor is not None:
             governor.check()
         pos = state.body_pos
@@ -437,7 +446,7 @@ def _loop(model, state, recorder, progress, record, energy_runaway, ckpt, guard,
             msg = (f"diverged at step {state.step}, t = {state.time:.6g} s "
                    f"(dt = {dt:.4g} s, stable estimate {est:.4g} s): non-finite state or "
                    f"a body faster than 10 c0 = {v_limit:.4g} m/s; reduce solver.dt_safety "
-                   "or check the case")
+                   "or check the case" + _contact_hint(model, state))
             recorder.fail(msg)
             raise RunFailed(msg)
         if state.step % out_every == 0 or state.step == n_total:
@@ -448,7 +457,7 @@ def _loop(model, state, recorder, progress, record, energy_runaway, ckpt, guard,
                                           and state.step >= ENERGY_GRACE_STEPS):
                 msg = (f"diverged at step {state.step}, t = {state.time:.6g} s "
                        f"(dt = {dt:.4g} s, stable estimate {est:.4g} s): {why}; reduce "
-                       "solver.dt_safety or check the case")
+                       "solver.dt_safety or check the case" + _contact_hint(model, state))
                 recorder.fail(msg)
                 raise RunFailed(msg)
             if ckpt.due(state) and state.step < n_total:
