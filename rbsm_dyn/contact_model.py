@@ -52,7 +52,8 @@ class ContactModel:
     cell_face_ptr (N+1,) over faces, loop_ptr (F+1,) over loop rows,
     loop_xyz (L, 3) [m], cell_loop_ptr (N+1,) the cell's loop rows),
     face_plane (F, 4) outward unit normal and offset in that frame, radius
-    (N,) [m] of the bounding sphere about the centroid, body_e, body_g (N,)
+    (N,) [m] of the bounding sphere, vert_ptr (N+1,) and vert_xyz (V, 3)
+    [m] each cell's vertices once (its frame) about the centroid, body_e, body_g (N,)
     [Pa] Young's and shear moduli, body_rigid (N,) uint8, body_part (N,)
     int32 and allowed (P, P) uint8: the parts that may meet.  Springs:
     nbr_key (K,) int64 the pairs a·(N+1) + b tied by springs, spring_pair
@@ -64,6 +65,8 @@ class ContactModel:
     loop_xyz: np.ndarray
     cell_loop_ptr: np.ndarray
     face_plane: np.ndarray
+    vert_ptr: np.ndarray
+    vert_xyz: np.ndarray
     radius: np.ndarray
     body_e: np.ndarray
     body_g: np.ndarray
@@ -95,6 +98,9 @@ def build_contact(case, model, setting):
     world = mesh.vertices[np.asarray(mesh.poly_vertex, dtype=np.int64)]
     local = np.einsum("nki,nk->ni", R0[row_cell], world - model.body_pos0[row_cell])
     cpp, pptr, local, n_hull = _convex(cpp, pptr, local, n)
+    vptr = np.asarray(mesh.cell_vertex_ptr, dtype=np.int64)
+    vcell = np.repeat(np.arange(n), np.diff(vptr))
+    vert = np.einsum("nki,nk->ni", R0[vcell], mesh.vertices - model.body_pos0[vcell])
     cell_loop_ptr = pptr[cpp]
     plane = planes_from_loops(pptr, local)
     dist = np.sqrt(np.einsum("ij,ij->i", local, local))
@@ -134,6 +140,7 @@ def build_contact(case, model, setting):
     return ContactModel(
         cell_face_ptr=cpp, loop_ptr=pptr, loop_xyz=np.ascontiguousarray(local),
         cell_loop_ptr=np.ascontiguousarray(cell_loop_ptr), face_plane=plane,
+        vert_ptr=vptr, vert_xyz=np.ascontiguousarray(vert),
         radius=radius, body_e=young, body_g=young / (2.0 * (1.0 + nu)), body_rigid=rigid,
         body_part=body_part, allowed=allowed, nbr_key=nbr_key, spring_pair=spring_pair,
         ground=g, has_ground=ground is not None, mu=float(mu), kfac=float(kfac),
@@ -216,12 +223,14 @@ def _convex(cpp, pptr, local, n):
 @dataclass
 class ContactState:
     """What a run carries for contact: the candidate pairs (P, 2) int32,
-    their slip memory (P, 3) [m] and last results out (P, N_OUT), each
+    their slip memory (P, 3) [m], the face that separated them at the
+    last step (P,) int32 (−1: none; collide._separating_face), their last results out (P, N_OUT), each
     body's pairs (ptr, entry: collide.body_pairs), body_friction (N,) [J]
     friction dissipated so far, the positions and orientations at the last
     broad phase (x_build, q_build), per-thread scratch, builds so far."""
     pairs: np.ndarray
     slip: np.ndarray
+    sep: np.ndarray
     out: np.ndarray
     ptr: np.ndarray
     entry: np.ndarray
@@ -235,16 +244,18 @@ class ContactState:
 
     def args(self, cm):
         """The arguments of collide.contact_step after ``commit``."""
-        return (self.pairs, self.slip, self.out, self.ptr, self.entry, self.body_friction,
-                self.body_dwrench, cm.cell_face_ptr, cm.loop_ptr, cm.loop_xyz, cm.face_plane, cm.cell_loop_ptr,
+        return (self.pairs, self.slip, self.sep, self.out, self.ptr, self.entry,
+                self.body_friction, self.body_dwrench, cm.cell_face_ptr, cm.loop_ptr,
+                cm.loop_xyz, cm.face_plane, cm.cell_loop_ptr, cm.vert_ptr, cm.vert_xyz,
                 cm.radius, cm.body_e, cm.body_g, cm.body_rigid, cm.ground, cm.mu, cm.kfac,
                 cm.zeta, self.scratch)
 
     def trial(self):
         """A copy whose commits (slip, friction) do not touch this one."""
-        return ContactState(self.pairs, self.slip.copy(), self.out.copy(), self.ptr,
-                            self.entry, self.body_friction.copy(), self.body_dwrench.copy(),
-                            self.x_build, self.q_build, self.scratch, self.builds)
+        return ContactState(self.pairs, self.slip.copy(), self.sep.copy(), self.out.copy(),
+                            self.ptr, self.entry, self.body_friction.copy(),
+                            self.body_dwrench.copy(), self.x_build, self.q_build, self.scratch,
+                            self.builds)
 
 
 def new_contact_state(model):
@@ -254,7 +265,8 @@ def new_contact_state(model):
     max_rows = int(np.max(np.diff(cm.cell_loop_ptr))) if n else 0
     max_faces = int(np.max(np.diff(cm.cell_face_ptr))) if n else 0
     return ContactState(
-        pairs=np.zeros((0, 2), dtype=np.int32), slip=np.zeros((0, 3)), out=np.zeros((0, N_OUT)),
+        pairs=np.zeros((0, 2), dtype=np.int32), slip=np.zeros((0, 3)),
+        sep=np.zeros(0, dtype=np.int32), out=np.zeros((0, N_OUT)),
         ptr=np.zeros(n + 1, dtype=np.int64), entry=np.zeros(0, dtype=np.int64),
         body_friction=np.zeros(n), body_dwrench=np.zeros((n, 6)), x_build=np.full((n, 3), np.inf), q_build=np.zeros((n, 4)),
         scratch=np.zeros((nblk, SCRATCH_ROWS(max_rows, max_faces), 3)))
@@ -275,9 +287,10 @@ def rebuild(model, state, force=False):
             return False
     active = neighbour_active(cm.spring_pair, len(cm.nbr_key), model.inelastic,
                               state.spring_kappa)
-    pairs = broad_phase(state.body_pos, cm.radius, cm.skin, cm.body_part, cm.allowed,
-                        cm.nbr_key, active, cm.ground, cm.has_ground)
-    cs.slip = carry_slip(cs.pairs, cs.slip, pairs, n)
+    pairs = broad_phase(state.body_pos, state.body_rot, cm.cell_loop_ptr, cm.loop_xyz,
+                        cm.radius, cm.skin, cm.body_part, cm.allowed, cm.nbr_key, active,
+                        cm.ground, cm.has_ground)
+    cs.slip, cs.sep = carry_slip(cs.pairs, cs.slip, cs.sep, pairs, n)
     cs.pairs = pairs
     cs.out = np.zeros((len(pairs), N_OUT))
     cs.ptr, cs.entry = body_pairs(pairs, n)

@@ -6,14 +6,15 @@ that overlap and are not tied by springs (intact, or broken and still
 close: those act as contact on their own face, physics/inelastic.py), and
 between cells and a fixed ground half-space.
 
-* Broad phase (``broad_phase``, serial, compiled): each cell's bounding
-  sphere (radius r about its centroid) inflated by half the skin, sorted
-  along the axis of largest spread and swept (sort and sweep: Baraff 1992,
-  "Dynamic simulation of non-penetrating rigid bodies", §6.2; Cohen et al.
-  1995, I-COLLIDE); candidate pairs (a < b, b = N for the ground) in
-  ascending (a, b), whatever the thread count.  Rebuilt when some cell has
-  moved (its centroid, plus r times its turn) more than half the skin since
-  the last build (contact_model.ContactDriver).
+* Broad phase (``broad_phase``, serial, compiled): each cell's world
+  bounding box and bounding sphere (radius r about its centroid), grown by
+  half the skin, sorted along the axis of largest spread and swept (sort
+  and sweep: Baraff 1992, "Dynamic simulation of non-penetrating rigid
+  bodies", §6.2; Cohen et al. 1995, I-COLLIDE); candidate pairs (a < b,
+  b = N for the ground) in ascending (a, b), whatever the thread count.
+  Rebuilt when some cell has moved (its centroid, plus r times its turn)
+  more than half the skin since the last build (contact_model.rebuild):
+  until then no vertex has left its grown box.
 * Narrow phase (physics/contact_geometry.py): the overlap polytope P = A ∩ B
   of the two cells, its volume V, centroid c, and S_B, the outward area
   vector of the part of P's boundary on B's faces (the direction B pushes
@@ -72,15 +73,41 @@ def neighbour_active(spring_pair, n_keys, inelastic, spring_kappa):
 
 
 @nb.njit(**JIT)
-def broad_phase(body_pos, radius, skin, body_part, allowed, nbr_key, nbr_active,
-                ground, has_ground):
+def cell_boxes(body_pos, body_rot, cell_loop_ptr, loop_xyz, margin):
+    """(N, 6) world bounding box (lo, hi) of each cell's vertices, grown by
+    `margin` on every side."""
+    n = cell_loop_ptr.shape[0] - 1
+    box = np.empty((n, 6))
+    for c in range(n):
+        R = body_rot[c]
+        for k in range(3):
+            box[c, k] = np.inf
+            box[c, 3 + k] = -np.inf
+        for r in range(cell_loop_ptr[c], cell_loop_ptr[c + 1]):
+            for k in range(3):
+                x = (R[k, 0] * loop_xyz[r, 0] + R[k, 1] * loop_xyz[r, 1]
+                     + R[k, 2] * loop_xyz[r, 2])
+                box[c, k] = min(box[c, k], x)
+                box[c, 3 + k] = max(box[c, 3 + k], x)
+        for k in range(3):
+            box[c, k] += body_pos[c, k] - margin
+            box[c, 3 + k] += body_pos[c, k] + margin
+    return box
+
+
+@nb.njit(**JIT)
+def broad_phase(body_pos, body_rot, cell_loop_ptr, loop_xyz, radius, skin, body_part,
+                allowed, nbr_key, nbr_active, ground, has_ground):
     """Candidate pairs (P, 2) int32 in ascending (a, b): bodies whose
-    spheres (radius + skin/2) overlap, whose parts may meet (allowed), and
-    that are not neighbours with acting springs; (i, N) for a body within
-    r + skin/2 of the ground plane n·x = d (ground (4,) = n, d)."""
+    bounding boxes grown by skin/2 overlap (a cell that then moves, with its
+    turn, by less than skin/2 stays inside its box) and whose spheres
+    (radius + skin/2) do, whose parts may meet (allowed), and that are not
+    neighbours with acting springs; (i, N) for a body within r + skin/2 of
+    the ground plane n·x = d (ground (4,) = n, d)."""
     n = radius.shape[0]
     if n == 0:
         return np.zeros((0, 2), dtype=np.int32)
+    box = cell_boxes(body_pos, body_rot, cell_loop_ptr, loop_xyz, 0.5 * skin)
     # axis of largest spread of the centres
     ax = 0
     best = -1.0
@@ -97,7 +124,7 @@ def broad_phase(body_pos, radius, skin, body_part, allowed, nbr_key, nbr_active,
     h = 0.5 * skin
     low = np.empty(n)
     for i in range(n):
-        low[i] = body_pos[i, ax] - radius[i] - h
+        low[i] = box[i, ax]
     order = np.argsort(low, kind="mergesort")
     cap = 8 * n + 16
     out = np.empty((cap, 2), dtype=np.int32)
@@ -105,12 +132,15 @@ def broad_phase(body_pos, radius, skin, body_part, allowed, nbr_key, nbr_active,
     nk = np.int64(n + 1)
     for ii in range(n):
         i = order[ii]
-        top = body_pos[i, ax] + radius[i] + h
+        top = box[i, 3 + ax]
         for jj in range(ii + 1, n):
             j = order[jj]
             if low[j] > top:
                 break
             if allowed[body_part[i], body_part[j]] == 0:
+                continue
+            if (box[j, 0] > box[i, 3] or box[i, 0] > box[j, 3] or box[j, 1] > box[i, 4]
+                    or box[i, 1] > box[j, 4] or box[j, 2] > box[i, 5] or box[i, 2] > box[j, 5]):
                 continue
             reach = radius[i] + radius[j] + skin
             d0 = body_pos[j, 0] - body_pos[i, 0]
@@ -157,11 +187,12 @@ def broad_phase(body_pos, radius, skin, body_part, allowed, nbr_key, nbr_active,
 
 
 @nb.njit(**JIT)
-def carry_slip(old_pairs, old_slip, pairs, n):
-    """Slip memory (P, 3) of the new pair list: a pair that was in the old
-    list keeps its slip (both lists ascending in (a, b)), a new one starts
-    at 0."""
+def carry_slip(old_pairs, old_slip, old_sep, pairs, n):
+    """Slip memory (P, 3) and separating face (P,) of the new pair list: a
+    pair that was in the old list keeps both (both lists ascending in
+    (a, b)), a new one starts at 0 and −1."""
     slip = np.zeros((pairs.shape[0], 3))
+    sep = np.full(pairs.shape[0], -1, dtype=np.int32)
     nk = np.int64(n + 1)
     j = 0
     for p in range(pairs.shape[0]):
@@ -172,7 +203,8 @@ def carry_slip(old_pairs, old_slip, pairs, n):
             slip[p, 0] = old_slip[j, 0]
             slip[p, 1] = old_slip[j, 1]
             slip[p, 2] = old_slip[j, 2]
-    return slip
+            sep[p] = old_sep[j]
+    return slip, sep
 
 
 @nb.njit(**JIT)
@@ -197,6 +229,55 @@ def body_pairs(pairs, n):
             entry[fill[b]] = 2 * p + 1
             fill[b] += 1
     return ptr, entry
+
+
+@nb.njit(**JIT)
+def _plane_separates(f, c, Rc, pc, o, Ro, po, face_plane, vert_ptr, vert_xyz, tol):
+    """Whether face f of cell c (at pc, turned by Rc) has every vertex of
+    cell o (at po, Ro) outside its plane (or within tol of it)."""
+    # o's vertices in c's frame: Rcᵀ (Ro x + po − pc)
+    t0, t1, t2 = po[0] - pc[0], po[1] - pc[1], po[2] - pc[2]
+    n0, n1, n2 = face_plane[f, 0], face_plane[f, 1], face_plane[f, 2]
+    # the plane in world (n_w = Rc n), then in o's frame: n_o = Roᵀ n_w
+    w0 = Rc[0, 0] * n0 + Rc[0, 1] * n1 + Rc[0, 2] * n2
+    w1 = Rc[1, 0] * n0 + Rc[1, 1] * n1 + Rc[1, 2] * n2
+    w2 = Rc[2, 0] * n0 + Rc[2, 1] * n1 + Rc[2, 2] * n2
+    m0 = Ro[0, 0] * w0 + Ro[1, 0] * w1 + Ro[2, 0] * w2
+    m1 = Ro[0, 1] * w0 + Ro[1, 1] * w1 + Ro[2, 1] * w2
+    m2 = Ro[0, 2] * w0 + Ro[1, 2] * w1 + Ro[2, 2] * w2
+    # n_w·(Ro x + po) ≥ d + n_w·pc  ⇔  n_o·x ≥ d − n_w·(po − pc)
+    lim = face_plane[f, 3] - (w0 * t0 + w1 * t1 + w2 * t2) - tol
+    for k in range(vert_ptr[o], vert_ptr[o + 1]):
+        if m0 * vert_xyz[k, 0] + m1 * vert_xyz[k, 1] + m2 * vert_xyz[k, 2] < lim:
+            return False
+    return True
+
+
+@nb.njit(**JIT)
+def _separating_face(a, b, body_pos, body_rot, cell_face_ptr, face_plane, vert_ptr, vert_xyz,
+                     radius, hint):
+    """A face of a or b whose plane has the other cell wholly outside (a
+    separating axis among the face normals), trying `hint` (the one found
+    at the last step, or −1) first: its index, or −1 if none (the cells may
+    overlap).  Temporal coherence: a pair that stays apart is settled by
+    one plane test per step (Lin & Canny 1991; Baraff 1992 §6)."""
+    tol = 1e-10 * (radius[a] + radius[b])
+    pa, pb = body_pos[a], body_pos[b]
+    Ra, Rb = body_rot[a], body_rot[b]
+    if hint >= 0:
+        if cell_face_ptr[a] <= hint < cell_face_ptr[a + 1]:
+            if _plane_separates(hint, a, Ra, pa, b, Rb, pb, face_plane, vert_ptr, vert_xyz,
+                                tol):
+                return hint
+        elif _plane_separates(hint, b, Rb, pb, a, Ra, pa, face_plane, vert_ptr, vert_xyz, tol):
+            return hint
+    for f in range(cell_face_ptr[a], cell_face_ptr[a + 1]):
+        if _plane_separates(f, a, Ra, pa, b, Rb, pb, face_plane, vert_ptr, vert_xyz, tol):
+            return f
+    for f in range(cell_face_ptr[b], cell_face_ptr[b + 1]):
+        if _plane_separates(f, b, Rb, pb, a, Ra, pa, face_plane, vert_ptr, vert_xyz, tol):
+            return f
+    return -1
 
 
 @nb.njit(inline="always", **JIT)
@@ -230,15 +311,28 @@ def _spin(i, body_rot, body_angmom, body_inertia):
 
 
 @nb.njit(**JIT)
-def _pair_force(p, pairs, slip, out, dt, body_pos, body_rot, body_vel, body_angmom,
+def _pair_force(p, pairs, slip, sep, out, dt, body_pos, body_rot, body_vel, body_angmom,
                 body_inertia, body_mass, cell_face_ptr, loop_ptr, loop_xyz, face_plane,
-                cell_loop_ptr, radius, body_e, body_g, body_rigid, ground, mu, kfac, zeta,
-                scratch):
+                cell_loop_ptr, vert_ptr, vert_xyz, radius, body_e, body_g, body_rigid, ground,
+                mu, kfac, zeta, scratch):
     n = radius.shape[0]
     a = pairs[p, 0]
     b = pairs[p, 1]
     for k in range(N_OUT):
         out[p, k] = 0.0
+    if b < n:
+        d0 = body_pos[b, 0] - body_pos[a, 0]
+        d1 = body_pos[b, 1] - body_pos[a, 1]
+        d2 = body_pos[b, 2] - body_pos[a, 2]
+        reach = radius[a] + radius[b]
+        if d0 * d0 + d1 * d1 + d2 * d2 >= reach * reach:
+            slip[p, 0] = slip[p, 1] = slip[p, 2] = 0.0
+            return
+        sep[p] = _separating_face(a, b, body_pos, body_rot, cell_face_ptr, face_plane,
+                                  vert_ptr, vert_xyz, radius, sep[p])
+        if sep[p] >= 0:
+            slip[p, 0] = slip[p, 1] = slip[p, 2] = 0.0
+            return
     if b == n:
         vol, c0, c1, c2, s0, s1, s2, area = overlap_halfspace(
             a, body_pos[a], body_rot[a], ground[:3], ground[3], cell_face_ptr, loop_ptr,
@@ -339,10 +433,10 @@ def _pair_force(p, pairs, slip, out, dt, body_pos, body_rot, body_vel, body_angm
 
 
 @nb.njit(parallel=True, **JIT)
-def contact_forces(pairs, slip, out, dt, body_pos, body_rot, body_vel, body_angmom,
+def contact_forces(pairs, slip, sep, out, dt, body_pos, body_rot, body_vel, body_angmom,
                    body_inertia, body_mass, cell_face_ptr, loop_ptr, loop_xyz, face_plane,
-                   cell_loop_ptr, radius, body_e, body_g, body_rigid, ground, mu, kfac, zeta,
-                   scratch):
+                   cell_loop_ptr, vert_ptr, vert_xyz, radius, body_e, body_g, body_rigid,
+                   ground, mu, kfac, zeta, scratch):
     """Force of every candidate pair (see module) into ``out`` (P, N_OUT),
     slip memory updated in ``slip``.  Pairs split into len(scratch) equal
     blocks, one per block of scratch: each pair's result depends on it
@@ -353,10 +447,10 @@ def contact_forces(pairs, slip, out, dt, body_pos, body_rot, body_vel, body_angm
         p0 = t * n_pairs // nblk
         p1 = (t + 1) * n_pairs // nblk
         for p in range(p0, p1):
-            _pair_force(p, pairs, slip, out, dt, body_pos, body_rot, body_vel, body_angmom,
-                        body_inertia, body_mass, cell_face_ptr, loop_ptr, loop_xyz,
-                        face_plane, cell_loop_ptr, radius, body_e, body_g, body_rigid, ground,
-                        mu, kfac, zeta, scratch[t])
+            _pair_force(p, pairs, slip, sep, out, dt, body_pos, body_rot, body_vel,
+                        body_angmom, body_inertia, body_mass, cell_face_ptr, loop_ptr,
+                        loop_xyz, face_plane, cell_loop_ptr, vert_ptr, vert_xyz, radius,
+                        body_e, body_g, body_rigid, ground, mu, kfac, zeta, scratch[t])
 
 
 @nb.njit(parallel=True, **JIT)
@@ -428,9 +522,10 @@ def contact_gather(ptr, entry, pairs, out, dt, body_pos, body_vel, body_angmom, 
 
 @nb.njit(**JIT)
 def contact_step(dt, body_pos, body_rot, body_vel, body_angmom, body_inertia, body_mass,
-                 body_wrench, body_damp, overwrite, commit, pairs, slip, out, ptr, entry,
-                 body_friction, body_dwrench, cell_face_ptr, loop_ptr, loop_xyz, face_plane, cell_loop_ptr,
-                 radius, body_e, body_g, body_rigid, ground, mu, kfac, zeta, scratch):
+                 body_wrench, body_damp, overwrite, commit, pairs, slip, sep, out, ptr, entry,
+                 body_friction, body_dwrench, cell_face_ptr, loop_ptr, loop_xyz, face_plane,
+                 cell_loop_ptr, vert_ptr, vert_xyz, radius, body_e, body_g, body_rigid, ground,
+                 mu, kfac, zeta, scratch):
     """One step's contact: the pair forces, then each body's sum added to
     its wrench (the arguments after ``commit``: contact_model.ContactState
     .args)."""
@@ -442,10 +537,10 @@ def contact_step(dt, body_pos, body_rot, body_vel, body_angmom, body_inertia, bo
                            body_rot, body_inertia, body_wrench, body_damp, body_friction,
                            body_dwrench, False, commit)
         return
-    contact_forces(pairs, slip, out, dt, body_pos, body_rot, body_vel, body_angmom,
+    contact_forces(pairs, slip, sep, out, dt, body_pos, body_rot, body_vel, body_angmom,
                    body_inertia, body_mass, cell_face_ptr, loop_ptr, loop_xyz, face_plane,
-                   cell_loop_ptr, radius, body_e, body_g, body_rigid, ground, mu, kfac, zeta,
-                   scratch)
+                   cell_loop_ptr, vert_ptr, vert_xyz, radius, body_e, body_g, body_rigid,
+                   ground, mu, kfac, zeta, scratch)
     contact_gather(ptr, entry, pairs, out, dt, body_pos, body_vel, body_angmom, body_rot,
                    body_inertia, body_wrench, body_damp, body_friction, body_dwrench,
                    overwrite, commit)
