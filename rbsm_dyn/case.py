@@ -509,7 +509,7 @@ ProbeItem = Annotated[
 
 
 FieldName = Literal["position", "orientation", "velocity", "angular_velocity",
-                    "spring_state", "spring_force", "cell_stress"]
+                    "spring_state", "spring_force", "cell_stress", "spring_damage"]
 
 
 class Output(_Node):
