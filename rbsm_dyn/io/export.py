@@ -16,21 +16,26 @@ writes, in DIR (default ``RUN_vtk/`` beside RUN.h5):
   stress [Pa]: ``stress`` (9 components, a tensor to ParaView), ``sxx``,
   ``syy``, ``szz``, ``sxy``, ``syz``, ``sxz``, ``von_mises`` and the
   principal stresses ``principal_max`` ≥ ``principal_mid`` ≥
-  ``principal_min`` (tension positive; :func:`stress_measures`).
+  ``principal_min`` (tension positive; :func:`stress_measures`); with the
+  ``spring_damage`` field ``damage`` (largest damage of the spring points
+  on the cell's faces, 0..1).
 * ``faces.pvd`` + ``faces/frame_NNNNNN.vtp``: the faces that are not
-  elastic (a spring on them yielded, broke or is in contact) as polygons,
-  drawn between their two cells (a support face on its cell).  Cell data
-  ``state`` (largest spring state on the face: 1 yielded, 2 broken,
-  3 contact), ``broken_fraction`` (share of the face's spring points that
-  are broken or in contact), ``face_id`` (internal face id, or -1 - boundary
-  face id), ``cell_a``, ``cell_b`` (-1 for the ground of a support).  An
-  elastic frame gives an empty file.
+  elastic (a spring on them yielded, broke or is in contact, or, with the
+  ``spring_damage`` field, softened: damage > 0) as polygons, drawn between
+  their two cells (a support face on its cell).  Cell data ``state``
+  (largest spring state on the face: 0 elastic but damaged, 1 yielded,
+  2 broken, 3 contact), ``broken_fraction`` (share of the face's spring
+  points that are broken or in contact), ``face_id`` (internal face id, or
+  -1 - boundary face id), ``cell_a``, ``cell_b`` (-1 for the ground of a
+  support); with the ``spring_damage`` field ``damage`` (largest damage of
+  the face's spring points: 0 intact .. 1 broken).  An elastic frame gives
+  an empty file.
 
 A history without any of the fields the cells are drawn from (position,
-orientation, velocity, angular_velocity, cell_stress) has the same cells
-at every frame: they are written once (the first frame's file, listed once
-in ``cells.pvd``), and so are the faces without the spring_state field;
-export says so.
+orientation, velocity, angular_velocity, cell_stress, spring_damage) has the
+same cells at every frame: they are written once (the first frame's file,
+listed once in ``cells.pvd``), and so are the faces without the
+spring_state and spring_damage fields; export says so.
 
 Every file carries field data ``time``, ``step`` and ``frame`` (frame index
 in the history).  The ``.pvd`` collections hold the time of each frame
@@ -46,11 +51,11 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
-from .geometry import CellGeometry, frame_state, rotation_vectors
+from .geometry import CellGeometry, face_largest, frame_state, rotation_vectors
 from .history import History, input_problem, open_history, require_rbsm_history
 
 __all__ = ["export", "cells_mesh", "faces_mesh", "write_pvd", "stress_measures",
-           "STRESS_MEASURES"]
+           "spring_damage", "STRESS_MEASURES"]
 
 #: scalar measures of the cell stress tensor (cell data, render --color)
 STRESS_MEASURES = ("sxx", "syy", "szz", "sxy", "syz", "sxz", "von_mises",
@@ -62,9 +67,18 @@ BLOCK_FRAMES = 32
 #: series the cells' files are drawn from (without any, every frame's is the same)
 CELL_SERIES = ("particles/bodies/position", "particles/bodies/orientation",
                "particles/bodies/velocity", "particles/bodies/angular_velocity",
-               "particles/bodies/stress")
+               "particles/bodies/stress", "springs/damage")
 #: the series the faces' files are drawn from
-FACE_SERIES = "springs/state"
+FACE_SERIES = ("springs/state", "springs/damage")
+#: the damage of each spring point (field spring_damage, solvers/output.py)
+DAMAGE_SERIES = "springs/damage"
+
+
+def spring_damage(h: History, k: int):
+    """The damage (S,) of row ``k`` of ``h`` (field spring_damage: 0 intact
+    .. 1 broken), or None when the history does not have it."""
+    d = h.series.get(DAMAGE_SERIES)
+    return None if d is None else np.asarray(d[k], np.float64)
 
 
 def _pv():
@@ -131,6 +145,14 @@ def cells_mesh(h: History, k: int, geom: CellGeometry | None = None, scale: floa
         grid.cell_data["stress"] = sig.reshape(-1, 9)
         for name, val in stress_measures(sig).items():
             grid.cell_data[name] = val
+    dmg = spring_damage(h, k)
+    if dmg is not None:
+        cd = np.zeros(geom.n_cells)
+        ends = np.asarray(h.static["connectivity/springs"], np.int64)
+        for j in (0, 1):
+            own = ends[:, j] < geom.n_cells          # (not the ground of a support)
+            np.maximum.at(cd, ends[own, j], dmg[own])
+        grid.cell_data["damage"] = cd
     _field_data(grid, h, k)
     return grid
 
@@ -139,7 +161,9 @@ def faces_mesh(h: History, k: int, geom: CellGeometry | None = None, scale: floa
                min_state: int = 1):
     """The faces of row ``k`` whose largest spring state is >= ``min_state``
     (1: yielded, broken or in contact; 2: cracks only) as a pyvista PolyData
-    of polygons (see the module docstring for the data)."""
+    of polygons (see the module docstring for the data); with min_state <= 1
+    and the spring_damage field, also the faces with damage > 0 (softening
+    before they break).  Each polygon has its own points, in face order."""
     pv = _pv()
     geom = geom or h.geometry()
     x = h.position[k] if h.position is not None else geom.x0
@@ -148,8 +172,14 @@ def faces_mesh(h: History, k: int, geom: CellGeometry | None = None, scale: floa
     st = h.spring_state[k] if h.spring_state is not None else None
     fstate, fbroken, bstate, bbroken = frame_state(
         st, h.static["springs/face"], geom.n_faces, geom.n_bfaces)
-    sel_f = np.nonzero(fstate >= min_state)[0]
-    sel_b = np.nonzero(bstate >= min_state)[0]
+    dmg = spring_damage(h, k)
+    if dmg is not None:
+        fdmg, bdmg = face_largest(dmg, h.static["springs/face"], geom.n_faces, geom.n_bfaces)
+    on_f, on_b = fstate >= min_state, bstate >= min_state
+    if dmg is not None and min_state <= 1:
+        on_f, on_b = on_f | (fdmg > 0), on_b | (bdmg > 0)
+    sel_f = np.nonzero(on_f)[0]
+    sel_b = np.nonzero(on_b)[0]
     pts_list, faces_list = [], []
     offset = 0
     for sel, ptr, xyz_fn in ((sel_f, geom.face_ptr, geom.face_points),
@@ -182,6 +212,8 @@ def faces_mesh(h: History, k: int, geom: CellGeometry | None = None, scale: floa
                                                geom.bface_cell[sel_b]]).astype(np.int64)
     poly.cell_data["cell_b"] = np.concatenate([fc[sel_f, 1] if len(fc) else sel_f,
                                                np.full(len(sel_b), -1)]).astype(np.int64)
+    if dmg is not None:
+        poly.cell_data["damage"] = np.concatenate([fdmg[sel_f], bdmg[sel_b]])
     _field_data(poly, h, k)
     return poly
 
@@ -234,15 +266,15 @@ def export(path, out_dir=None, *, every: int = 1, frames=None, log=None) -> dict
     # would give the same file at every frame: write it once (the .pvd
     # lists it once, ParaView shows it at every time) and say so
     cells_vary = any(p in head.series for p in CELL_SERIES)
-    faces_vary = FACE_SERIES in head.series
+    faces_vary = any(p in head.series for p in FACE_SERIES)
     notes = []
     if len(idx) > 1 and not cells_vary:
         notes.append("the history has none of the fields position, orientation, velocity, "
-                     "angular_velocity, cell_stress: the cells are the same at every frame, "
-                     "written once (reference configuration)")
+                     "angular_velocity, cell_stress, spring_damage: the cells are the same at "
+                     "every frame, written once (reference configuration)")
     if len(idx) > 1 and not faces_vary:
-        notes.append("the history has no spring_state field: the faces are the same at every "
-                     "frame, written once")
+        notes.append("the history has no spring_state or spring_damage field: the faces are "
+                     "the same at every frame, written once")
     cell_entries, face_entries, n_faces = [], [], []
     template = None
     for b0 in range(0, len(idx), BLOCK_FRAMES):

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["CellGeometry", "quat_to_matrix", "rotation_vectors", "frame_state",
-           "FACE_STATE_NAMES"]
+           "face_largest", "FACE_STATE_NAMES"]
 
 GEOM = "particles/bodies/geometry"
 FACE_STATE_NAMES = {0: "elastic", 1: "yielded", 2: "broken", 3: "contact"}
@@ -85,6 +85,22 @@ def frame_state(spring_state: np.ndarray | None, spring_face: np.ndarray,
         brk = np.bincount(ids, weights=(s >= 2).astype(np.float64), minlength=m)
         frac = brk / np.maximum(cnt, 1.0)
         out += [state[:n], frac[:n]]
+    return tuple(out)
+
+
+def face_largest(values: np.ndarray, spring_face: np.ndarray, n_faces: int, n_bfaces: int):
+    """Largest of a per-spring quantity ``values`` (S,) (the damage,
+    field spring_damage) over the spring points of each face: ``(face
+    (F,), bface (B,))``, 0 on a face without spring points."""
+    face = np.asarray(spring_face, dtype=np.int64)
+    v = np.asarray(values, dtype=np.float64)
+    out = []
+    for sel, ids, n in ((face >= 0, face, n_faces), (face < 0, -1 - face, n_bfaces)):
+        ids = ids[sel]
+        m = max(n, int(ids.max()) + 1 if len(ids) else 0)
+        big = np.zeros(m)
+        np.maximum.at(big, ids, v[sel])
+        out.append(big[:n])
     return tuple(out)
 
 

@@ -1,26 +1,39 @@
-"""Pictures of a history: the deformed cells with their cracks, and the
-probes and energies over time.
+"""Pictures of a history: one frame of the cells and cracks (render), the
+energies, frequencies and probes (plot).
 
-    python -m rbsm_dyn render RUN.h5 [--frame K] [--out PNG] [--scale F] [--color C]
+    python -m rbsm_dyn render RUN.h5 [--frame K] [--out PNG] [--scale F] [--size W H] [--color C]
     python -m rbsm_dyn plot RUN.h5 [--out PNG]
 
 ``render`` draws frame K (default the last) off-screen with pyvista: the
 cells coloured by the magnitude of their displacement (``--color
-displacement``, the default) or by their stress, when the history has the
-``cell_stress`` field: a component (``sxx``, ``syy``, ``szz``, ``sxy``,
-``syz``, ``sxz``; blue compression, red tension, a range symmetric about
-0), ``von_mises``, ``principal_max`` or ``principal_min`` (io/export.py
-stress_measures); displacements
-magnified by F (default: chosen so that the largest displacement shows as
-about 4 % of the domain size, rounded to 1, 2 or 5 × 10^n, never below 1);
-the factor is printed and written in the picture.  Faces on which a spring
-broke are drawn red (their edges too, so that a crack shows through the
-cells), yielded faces orange.  The view looks along the thinnest side of the
-domain (y on a tie), z up.
+displacement``, the default), by a component of it (``ux``, ``uy``,
+``uz``; blue negative, red positive, a range symmetric about 0), by their
+stress, when the history has the ``cell_stress`` field: a component
+(``sxx``, ``syy``, ``szz``, ``sxy``, ``syz``, ``sxz``; blue compression,
+red tension), ``von_mises``, ``principal_max``, ``principal_mid`` or
+``principal_min`` (io/export.py stress_measures), or (``--color damage``,
+with the ``spring_damage`` field) grey cells and their faces coloured by
+the damage of their springs, 0..1, so that softening faces show before
+they break.  Displacements are magnified by F (default: chosen so that the
+largest displacement shows as about 4 % of the domain size, rounded to 1,
+2 or 5 × 10^n, never below 1); the factor is printed and written in the
+picture.  Faces on which a spring broke during the run are drawn red
+(their edges too, so that a crack shows through the cells), faces broken
+from the start (a ``cuts`` notch: spring state >= 2 in frame 0) black,
+yielded faces orange.  Every picture has an axes triad (lower left) and a
+length scale bar under the cells (of the undeformed lengths; a round 1, 2
+or 5 × 10^n m).  The view looks along the thinnest side of the domain (y
+on a tie), z up.  A modal history's picture names the mode and its
+frequency, a static one's the load factor.
 
 ``plot`` draws the energies (kinetic, strain, dissipated, external work and
-the balance error, solvers/output.py) and each probe over time with
-matplotlib (the optional extra ``rbsm_dyn[plot]``).
+the balance error, solvers/output.py) and each probe over time (load
+factor in static mode, where external work is booked along the load path,
+so that the balance holds at each converged step) with matplotlib (the
+optional extra ``rbsm_dyn[plot]``).  For a modal history it draws the
+natural frequencies against the mode number instead (no energies: the
+strain energy of a mode shape drawn at an arbitrary amplitude balances
+nothing), and each probe's value in each mode shape.
 
 Off-screen rendering needs an OpenGL implementation, not a screen.  The VTK
 wheels from PyPI (>= 9.4) choose one at run time: an X display if DISPLAY is
@@ -41,22 +54,44 @@ from pathlib import Path
 
 import numpy as np
 
-from .export import STRESS_MEASURES, cells_mesh, faces_mesh
+from .export import STRESS_MEASURES, cells_mesh, faces_mesh, spring_damage
+from .geometry import frame_state
 from .history import input_problem, open_history, require_rbsm_history
 
-__all__ = ["render", "plot", "auto_scale", "RendererUnavailable", "check_renderer", "COLORS"]
+__all__ = ["render", "build_plotter", "plot", "auto_scale", "nice_length", "RendererUnavailable",
+           "check_renderer", "COLORS", "RENDER_DESCRIPTION", "PLOT_DESCRIPTION"]
 
-STATE_COLORS = {1: "orange", 2: "red", 3: "red"}
+#: what ``python -m rbsm_dyn render --help`` and ``plot --help`` say first
+RENDER_DESCRIPTION = (
+    "Draw one frame of a history (default the last) to a PNG, off-screen: the deformed "
+    "cells coloured by their displacement (magnitude or a component), their stress or the "
+    "damage of their faces; cracks formed in the run red, the pre-cut notch black, yielded "
+    "faces orange; an axes triad and a length scale bar.")
+PLOT_DESCRIPTION = (
+    "Draw the energies with their balance and each probe over time (over the load factor "
+    "in a static run) to a PNG with matplotlib; for a modal run the natural frequencies "
+    "and the probes against the mode number.")
+
+#: face colours: cracks formed during the run, the pre-cut notch (broken
+#: in frame 0), yielded faces (and, in the damage picture, yielded faces
+#: with no damage, since the damage colours run through orange)
+CRACK_COLOR, NOTCH_COLOR, YIELD_COLOR, YIELD_COLOR_DAMAGE = "red", "black", "orange", "deepskyblue"
+STATE_COLORS = {1: YIELD_COLOR, 2: CRACK_COLOR, 3: CRACK_COLOR}
+DAMAGE_CMAP = "YlOrRd"
 
 #: render --size bounds [pixels] (below: nothing to see, VTK divides by 0;
 #: above: the off-screen buffer no longer fits in memory)
 SIZE_MIN, SIZE_MAX = 16, 8192
 
 #: what the cells can be coloured by (--color): the displacement magnitude
-#: or a measure of the cell stress (io/export.py STRESS_MEASURES)
-COLORS = ("displacement",) + STRESS_MEASURES
+#: or a component, the damage of the faces, a measure of the cell stress
+#: (io/export.py STRESS_MEASURES)
+DISPLACEMENT_COLORS = ("displacement", "ux", "uy", "uz")
+COLORS = DISPLACEMENT_COLORS + ("damage",) + STRESS_MEASURES
 # (ASCII: VTK's fonts may lack Greek letters)
-_COLOR_LABELS = {"sxx": "stress xx", "syy": "stress yy", "szz": "stress zz",
+_COLOR_LABELS = {"displacement": "displacement", "ux": "displacement x",
+                 "uy": "displacement y", "uz": "displacement z", "damage": "damage",
+                 "sxx": "stress xx", "syy": "stress yy", "szz": "stress zz",
                  "sxy": "stress xy", "syz": "stress yz", "sxz": "stress xz",
                  "von_mises": "von Mises stress",
                  "principal_max": "largest principal stress",
@@ -108,6 +143,26 @@ def auto_scale(max_disp: float, size: float, target: float = 0.04) -> float:
     return 1.0
 
 
+def nice_length(x: float) -> float:
+    """The largest 1, 2 or 5 × 10^n not above x > 0 (the scale bar)."""
+    if not (x > 0) or not math.isfinite(x):
+        return 1.0
+    e = math.floor(math.log10(x))
+    for m in (5, 2, 1):
+        if m * 10.0 ** e <= x * (1 + 1e-12):
+            return float(m * 10.0 ** e)
+    return 10.0 ** (e - 1) * 5
+
+
+def format_length(L: float) -> str:
+    """A length [m] in the unit that makes it a small number: 0.05 -> "50
+    mm" (ASCII "um" for micrometres: VTK's fonts may lack Greek)."""
+    for unit, f in (("km", 1e3), ("m", 1.0), ("mm", 1e-3), ("um", 1e-6), ("nm", 1e-9)):
+        if L >= f * (1 - 1e-9):
+            return f"{round(L / f, 9):g} {unit}"
+    return f"{L:.3g} m"
+
+
 def _fmt_scale(s: float) -> str:
     return f"{s:g}"
 
@@ -124,19 +179,94 @@ def _view(box_min, box_max):
     return direction, up
 
 
-def render(path, *, frame: int = -1, out=None, scale: float | None = None,
-           window_size=(1600, 800), show_edges: bool = True,
-           color: str = "displacement") -> dict:
-    """Draw frame ``frame`` of history ``path`` to a PNG (module docstring),
-    the cells coloured by ``color`` (one of COLORS).
-    Returns ``{"out", "frame", "time", "scale", "max_displacement",
-    "n_broken_faces", "n_yielded_faces", "renderer", "color", "color_range"}``
-    (color_range: the (min, max) of the colour bar)."""
+def _face_kinds(h, faces, geom, state0):
+    """Per face of ``faces`` (faces_mesh of frame 0 of ``h``): new crack
+    (a spring on it broke after frame 0), notch (broken faces whose broken
+    springs were all broken in frame 0: a cut), yielded (largest state 1).
+    ``state0``: the spring states of the history's frame 0 (None: every
+    broken face counts as a new crack)."""
+    if faces.n_cells == 0:
+        z = np.zeros(0, bool)
+        return z, z, z
+    state = np.asarray(faces.cell_data["state"])
+    broken = state >= 2
+    st = h.spring_state[0] if h.spring_state is not None else None
+    if st is None or state0 is None:
+        newly = broken
+    else:
+        new_springs = (np.asarray(st) >= 2) & (np.asarray(state0) < 2)
+        fnew, _, bnew, _ = frame_state(np.where(new_springs, 2, 0).astype(np.int8),
+                                       h.static["springs/face"], geom.n_faces, geom.n_bfaces)
+        fid = np.asarray(faces.cell_data["face_id"])
+        inner = fid >= 0
+        flag = np.zeros(len(fid), bool)
+        flag[inner] = fnew[fid[inner]] >= 2
+        flag[~inner] = bnew[-1 - fid[~inner]] >= 2
+        newly = broken & flag
+    return newly, broken & ~newly, state == 1
+
+
+def _cell_scalars(color, cells, true_cells, umag, path, h):
+    """(scalars name, bar label, colormap, clim, preference) of the cells
+    for ``color``; adds the array to ``cells``."""
+    if color == "displacement":
+        return ("displacement [m]", "displacement [m]", "viridis",
+                (float(umag.min(initial=0.0)), float(umag.max(initial=0.0))), "point")
+    if color in DISPLACEMENT_COLORS:
+        label = f"{_COLOR_LABELS[color]} [m]"
+        val = np.asarray(true_cells.point_data["displacement"])[:, "xyz".index(color[1])]
+        cells.point_data[label] = val
+        top = float(np.abs(val).max(initial=0.0))
+        clim = (-top, top) if top > 0 else (-1.0, 1.0)
+        return label, label, "coolwarm", clim, "point"
+    if h.cell_stress is None:
+        raise KeyError(f"{path}: no cell stress in the history (add cell_stress to "
+                       "output.fields) for --color " + color)
+    label = f"{_COLOR_LABELS[color]} [Pa]"
+    val = np.asarray(cells.cell_data[color])
+    cells.cell_data[label] = val
+    top = float(np.abs(val).max(initial=0.0))
+    if color == "von_mises":
+        cmap, clim = "viridis", (0.0, top)
+    else:
+        # signed: blue compression, red tension, zero in the middle
+        cmap, clim = "coolwarm", (-top, top)
+    if clim[1] <= clim[0]:
+        clim = (clim[0] - 1.0, clim[1] + 1.0)
+    return label, label, cmap, clim, "cell"
+
+
+def _frame_label(h, case, mode):
+    """What the frame is: time, load factor, or mode and its frequency."""
+    t = float(h.time[0])
+    if mode == "modal":
+        k = int(h.step[0])
+        if k == 0:
+            return "undeformed (mode shapes in frames 1..M)"
+        f = None
+        if "frequency" in h.observables and len(h.observables["frequency"]):
+            f = float(h.observables["frequency"][0])
+        elif "modes/frequency" in h.static and k - 1 < len(h.static["modes/frequency"]):
+            f = float(np.asarray(h.static["modes/frequency"])[k - 1])
+        return f"mode {k}" + (f", f = {f:.4g} Hz" if f is not None else "")
+    return {"static": f"load factor {t:.4g}",
+            "linear": "linear solution"}.get(mode, f"t = {t:.4g} s")
+
+
+def build_plotter(path, *, frame: int = -1, scale: float | None = None,
+                  window_size=(1600, 800), show_edges: bool = True,
+                  color: str = "displacement"):
+    """The picture of frame ``frame`` of history ``path``, ready to be
+    drawn: ``(plotter, info)`` (off-screen pyvista Plotter; call
+    ``plotter.screenshot(png)`` and ``plotter.close()``).  ``info`` holds
+    what :func:`render` returns but ``out``, and ``scale_bar`` (length [m],
+    label)."""
     if color not in COLORS:
         raise ValueError(f"--color must be one of {', '.join(COLORS)} (got {color!r})")
     if len(window_size) != 2 or not all(SIZE_MIN <= int(v) <= SIZE_MAX for v in window_size):
         raise ValueError(f"--size W H must be between {SIZE_MIN} and {SIZE_MAX} pixels each "
                          f"(got {' '.join(str(v) for v in window_size)})")
+    window_size = (int(window_size[0]), int(window_size[1]))
     renderer = check_renderer()
     import pyvista as pv
     pv.OFF_SCREEN = True
@@ -146,7 +276,10 @@ def render(path, *, frame: int = -1, out=None, scale: float | None = None,
     if h.position is None:
         raise KeyError(f"{path}: no body positions in the history (output.fields)")
     fi = int(h.frame_index[0])
-    out = Path(out) if out is not None else path.with_name(f"{path.stem}_frame{fi}.png")
+    dmg = spring_damage(h, 0)
+    if color == "damage" and dmg is None:
+        raise KeyError(f"{path}: no spring damage in the history (add spring_damage to "
+                       "output.fields) for --color damage")
     geom = h.geometry()
     true_cells = cells_mesh(h, 0, geom, scale=1.0)
     umag = np.linalg.norm(true_cells.point_data["displacement"], axis=1)
@@ -157,56 +290,80 @@ def render(path, *, frame: int = -1, out=None, scale: float | None = None,
         scale = auto_scale(max_u, size)
     cells = cells_mesh(h, 0, geom, scale=scale) if scale != 1.0 else true_cells
     cells.point_data["displacement [m]"] = umag
-    if color == "displacement":
-        scalars, label, cmap = "displacement [m]", "displacement [m]", "viridis"
-        clim = (float(umag.min(initial=0.0)), max_u)
-    else:
-        if h.cell_stress is None:
-            raise KeyError(f"{path}: no cell stress in the history (add cell_stress to "
-                           "output.fields) for --color " + color)
-        label = f"{_COLOR_LABELS[color]} [Pa]"
-        scalars = label
-        val = np.asarray(cells.cell_data[color])
-        cells.cell_data[label] = val
-        top = float(np.abs(val).max(initial=0.0))
-        if color in ("von_mises",):
-            cmap, clim = "viridis", (0.0, top)
-        else:
-            # signed: blue compression, red tension, zero in the middle
-            cmap, clim = "coolwarm", (-top, top)
-        if clim[1] <= clim[0]:
-            clim = (clim[0] - 1.0, clim[1] + 1.0)
     faces = faces_mesh(h, 0, geom, scale=scale, min_state=1)
     state = np.asarray(faces.cell_data["state"]) if faces.n_cells else np.zeros(0)
+    state0 = None
+    if h.spring_state is not None:
+        state0 = (h.spring_state[0] if fi == 0
+                  else open_history(path, frames=0).spring_state[0])
+    newly, notch, yielded = _face_kinds(h, faces, geom, state0)
 
     case = h.case()
     name = case.get("name") or path.stem
+    mode = case.get("solver", {}).get("mode", "dynamic")
     pl = pv.Plotter(off_screen=True, window_size=list(window_size))
     pl.set_background("white")
-    pl.add_mesh(cells, scalars=scalars, cmap=cmap, clim=clim, show_edges=show_edges,
-                preference="point" if color == "displacement" else "cell",
-                edge_color="#303030", line_width=0.5, lighting=True,
-                scalar_bar_args={"title": label, "color": "black", "vertical": True,
-                                 "position_x": 0.89, "position_y": 0.1,
-                                 "height": 0.7, "width": 0.05, "fmt": "%.2e"})
+    bar_args = {"color": "black", "vertical": True, "position_x": 0.89, "position_y": 0.1,
+                "height": 0.7, "width": 0.05, "fmt": "%.2e"}
+    if color == "damage":
+        label, clim = "damage", (0.0, 1.0)
+        pl.add_mesh(cells, color="#d0d0d0", show_edges=show_edges, edge_color="#606060",
+                    line_width=0.5, lighting=True)
+    else:
+        scalars, label, cmap, clim, pref = _cell_scalars(color, cells, true_cells, umag, path, h)
+        pl.add_mesh(cells, scalars=scalars, cmap=cmap, clim=clim, show_edges=show_edges,
+                    preference=pref, edge_color="#303030", line_width=0.5, lighting=True,
+                    scalar_bar_args={"title": label, **bar_args})
     n_broken = int(np.count_nonzero(state >= 2))
-    n_yield = int(np.count_nonzero(state == 1))
-    for st_sel, face_color in (((state == 1), "orange"), ((state >= 2), "red")):
-        ids = np.nonzero(st_sel)[0]
+    n_yield = int(np.count_nonzero(yielded))
+    n_notch = int(np.count_nonzero(notch))
+    n_damaged = 0
+    fdmg = (np.asarray(faces.cell_data["damage"]) if dmg is not None and faces.n_cells
+            else np.zeros(faces.n_cells))
+
+    def draw(ids, **style):
         if len(ids) == 0:
-            continue
+            return
         sub = faces.extract_cells(ids)
-        pl.add_mesh(sub, color=face_color, opacity=1.0, lighting=False)
-        pl.add_mesh(sub.extract_all_edges(), color=face_color, line_width=3,
-                    render_lines_as_tubes=False)
+        pl.add_mesh(sub, opacity=1.0, lighting=False, **style)
+        pl.add_mesh(sub.extract_all_edges(), line_width=3, render_lines_as_tubes=False,
+                    **style)
+
+    if color == "damage":
+        # the damaged faces by their damage (broken ones at 1), the notch
+        # black, yielded faces without damage blue
+        shown = np.nonzero((fdmg > 0) & ~notch)[0]
+        n_damaged = int(np.count_nonzero((fdmg > 0) & (fdmg < 1) & (state < 2)))
+        if len(shown):
+            sub = faces.extract_cells(shown)
+            # per point (each face has its own points), so that the edges
+            # carry the face's damage too
+            sub.point_data["damage"] = _face_values_at_points(
+                sub, np.asarray(sub.cell_data["damage"]))
+            style = dict(scalars="damage", cmap=DAMAGE_CMAP, clim=(0.0, 1.0),
+                         preference="point", lighting=False)
+            pl.add_mesh(sub, opacity=1.0, scalar_bar_args={"title": "damage", **bar_args,
+                                                           "fmt": "%.2f"}, **style)
+            pl.add_mesh(sub.extract_all_edges(), line_width=3, render_lines_as_tubes=False,
+                        show_scalar_bar=False, **style)
+        draw(np.nonzero(yielded & ~(fdmg > 0))[0], color=YIELD_COLOR_DAMAGE)
+        draw(np.nonzero(notch)[0], color=NOTCH_COLOR)
+    else:
+        for sel, face_color in ((yielded, YIELD_COLOR), (notch, NOTCH_COLOR),
+                                (newly, CRACK_COLOR)):
+            draw(np.nonzero(sel)[0], color=face_color)
     t = float(h.time[0])
-    mode = case.get("solver", {}).get("mode", "dynamic")
-    tlabel = {"static": f"load factor {t:.4g}", "modal": f"mode {int(h.step[0])}",
-              "linear": "linear solution"}.get(mode, f"t = {t:.4g} s")
+    tlabel = _frame_label(h, case, mode)
+    if color == "damage":
+        legend = (f"faces coloured by damage ({n_damaged} softening, {n_broken - n_notch} "
+                  f"broken at 1); black: pre-cut notch ({n_notch})"
+                  + (f"; blue: yielded faces ({n_yield})" if n_yield else ""))
+    else:
+        legend = (f"red: cracks formed in the run ({n_broken - n_notch}), black: pre-cut "
+                  f"notch ({n_notch}), orange: yielded faces ({n_yield})")
     text = (f"{name}: frame {fi}, {tlabel}\n"
             f"displacement magnified x {_fmt_scale(scale)} (largest: {max_u:.3g} m)"
-            + (f"; colour: {label}" if color != "displacement" else "") + "\n"
-            f"red: broken faces ({n_broken}), orange: yielded faces ({n_yield})")
+            + (f"; colour: {label}" if color != "displacement" else "") + "\n" + legend)
     pl.add_text(text, position="upper_left", font_size=11, color="black")
     direction, up = _view(box_min, box_max)
     centre = 0.5 * (box_min + box_max)
@@ -224,16 +381,99 @@ def render(path, *, frame: int = -1, out=None, scale: float | None = None,
     w = np.ptp(corners @ right)
     hgt = np.ptp(corners @ up)
     aspect = window_size[0] / window_size[1]
-    pl.camera.focal_point = 0.5 * (lo + hi)
-    pl.camera.position = 0.5 * (lo + hi) + direction * size * 3
-    pl.camera.parallel_scale = 0.5 * max(hgt / 0.72, w / (0.72 * aspect))
-    out.parent.mkdir(parents=True, exist_ok=True)
-    pl.screenshot(str(out))
-    pl.close()
-    return {"out": str(out), "frame": fi, "time": t, "scale": float(scale),
-            "max_displacement": max_u, "n_broken_faces": n_broken,
-            "n_yielded_faces": n_yield, "renderer": renderer, "color": color,
-            "color_range": (float(clim[0]), float(clim[1]))}
+    focal = 0.5 * (lo + hi)
+    pl.camera.focal_point = focal
+    pl.camera.position = focal + direction * size * 3
+    ps = 0.5 * max(hgt / 0.72, w / (0.72 * aspect))
+    if not ps > 0:
+        ps = 0.5 * size if size > 0 else 1.0
+    pl.camera.parallel_scale = ps
+    bar = _add_scale_bar(pl, corners, focal, right, up, direction, ps, window_size, w, hgt)
+    _add_axes(pl, window_size)
+    pl.reset_camera_clipping_range()
+    info = {"frame": fi, "time": t, "scale": float(scale), "max_displacement": max_u,
+            "n_broken_faces": n_broken, "n_yielded_faces": n_yield,
+            "n_notch_faces": n_notch, "n_new_crack_faces": n_broken - n_notch,
+            "n_damaged_faces": n_damaged, "renderer": renderer, "color": color,
+            "color_range": (float(clim[0]), float(clim[1])), "scale_bar": bar,
+            "title": tlabel, "mode": mode}
+    return pl, info
+
+
+def _face_values_at_points(poly, per_face):
+    """A per-face array repeated on each face's points (faces_mesh gives
+    each polygon its own points; extract_cells keeps that)."""
+    vals = np.zeros(poly.n_points)
+    offs = np.asarray(poly.cell_offsets if hasattr(poly, "cell_offsets") else poly.offset)
+    vals[np.asarray(poly.cell_connectivity)] = np.repeat(per_face, np.diff(offs))
+    return vals
+
+
+def _add_axes(pl, window_size):
+    """An axes triad in the lower left corner, about 150 pixels square."""
+    W, H = window_size
+    side = min(150.0, 0.25 * W, 0.25 * H)
+    pl.add_axes(line_width=2, color="black", viewport=(0, 0, side / W, side / H))
+
+
+def _add_scale_bar(pl, corners, focal, right, up, direction, ps, window_size, w, hgt):
+    """A black bar of a round length (nice_length of a quarter of the
+    picture's width, or height) under the cells' right end, with end ticks
+    and its length written to its left.  Returns (length [m], label)."""
+    import pyvista as pv
+    W, H = window_size
+    L = nice_length(0.25 * (w if w > 0 else hgt))
+    label = format_length(L)
+    cr, cu = corners @ right, corners @ up
+    depth = float(np.max(corners @ direction))          # in front of the cells
+    x1 = float(cr.max())
+    x0 = x1 - L
+    y = float(cu.min()) - 0.05 * 2 * ps
+    tick = 0.012 * 2 * ps
+
+    def at(xr, yu):
+        return xr * right + yu * up + depth * direction
+
+    pts = np.array([at(x0, y), at(x1, y), at(x0, y - tick), at(x0, y + tick),
+                    at(x1, y - tick), at(x1, y + tick)])
+    lines = np.array([2, 0, 1, 2, 2, 3, 2, 4, 5])
+    pl.add_mesh(pv.PolyData(pts, lines=lines), color="black", line_width=3,
+                lighting=False, reset_camera=False, name="scale_bar")
+    # its label, in pixels (parallel projection: H / (2 ps) pixels per metre)
+    px = W / 2 + (x0 - float(focal @ right)) * H / (2 * ps) - 8
+    py = H / 2 + (y - float(focal @ up)) * H / (2 * ps)
+    txt = pl.add_text(label, position=(max(px, 0.0), max(py, 0.0)), font_size=10,
+                      color="black", name="scale_bar_label")
+    try:
+        txt.prop.justification_horizontal = "right"
+        txt.prop.justification_vertical = "center"
+    except AttributeError:                    # (older pyvista: left, bottom)
+        pass
+    return L, label
+
+
+def render(path, *, frame: int = -1, out=None, scale: float | None = None,
+           window_size=(1600, 800), show_edges: bool = True,
+           color: str = "displacement") -> dict:
+    """Draw frame ``frame`` of history ``path`` to a PNG (module docstring),
+    the cells coloured by ``color`` (one of COLORS).
+    Returns ``{"out", "frame", "time", "scale", "max_displacement",
+    "n_broken_faces", "n_yielded_faces", "n_notch_faces",
+    "n_new_crack_faces", "n_damaged_faces", "renderer", "color",
+    "color_range", "scale_bar", "title", "mode"}`` (color_range: the (min,
+    max) of the colour bar; n_broken_faces counts the notch too;
+    n_damaged_faces: softening, not broken, with --color damage)."""
+    pl, info = build_plotter(path, frame=frame, scale=scale, window_size=window_size,
+                             show_edges=show_edges, color=color)
+    try:
+        path = Path(path)
+        out = (Path(out) if out is not None
+               else path.with_name(f"{path.stem}_frame{info['frame']}.png"))
+        out.parent.mkdir(parents=True, exist_ok=True)
+        pl.screenshot(str(out))
+    finally:
+        pl.close()
+    return {"out": str(out), **info}
 
 
 # ------------------------------------------------------------------ plot

@@ -18,6 +18,8 @@ Balance: kinetic + strain + damping + plastic + fracture (+ contact_friction)
          = kinetic(0) + strain(0) + external.
 Cracks: n_broken (springs broken, open or in contact) and crack_area [m²]
 (their area); spring states per frame in springs/state when asked.
+Damage (field spring_damage, springs/damage (S,) float32): per spring point
+0 intact to 1 broken (spring_damage_of).
 Cell stress (field cell_stress, particles/bodies/stress (N, 3, 3) [Pa]):
 the symmetrised Love–Weber average of each cell's spring forces
 (physics/cell_stress.py), computed only in the frames of a run that asks.
@@ -47,7 +49,24 @@ FIELD_SERIES = {
     # symmetric; stored whole (not as 6 Voigt numbers) so that no component
     # order has to be guessed: eigvalsh and einsum read it as it is
     "cell_stress": ("particles/bodies/stress", (3, 3), "f8", "Pa"),
+    # damage of each spring point, 0 intact .. 1 broken (spring_damage_of):
+    # softening shows here before the spring breaks
+    "spring_damage": ("springs/damage", None, "f4", "1"),
 }
+
+
+def spring_damage_of(model, state):
+    """The damage (S,) float32 written by the field spring_damage: the
+    softening damage D of an intact spring (physics/inelastic.py, State.
+    spring_dmg: its stiffness in tension is (1 − D) k), 1 where the spring
+    is broken (state >= BROKEN: also a spring cut before the run or broken
+    by the strain or strength law, whose D stays 0), 0 in an elastic model.
+    Never decreases over a run: D grows only, a broken spring stays broken."""
+    if not model.inelastic:
+        return np.zeros(model.n_springs, dtype=np.float32)
+    d = np.clip(state.spring_dmg, 0.0, 1.0).astype(np.float32)
+    d[state.spring_state >= BROKEN] = 1.0
+    return d
 
 
 def frame_buffer(case):
@@ -309,7 +328,8 @@ class Recorder:
         for name in self.fields:
             path_, tail, dt, unit = FIELD_SERIES[name]
             if tail is None:
-                tail = (m.n_springs,) if name == "spring_state" else (m.n_springs, 3)
+                tail = ((m.n_springs,) if name in ("spring_state", "spring_damage")
+                        else (m.n_springs, 3))
             else:
                 tail = (m.n_bodies,) + tail
             w.add_series(path_, tail, dt, unit)
@@ -451,6 +471,8 @@ class Recorder:
                                  else np.zeros(m.n_springs, dtype=np.int8))
             elif name == "spring_force":
                 values[path_] = state.spring_force
+            elif name == "spring_damage":
+                values[path_] = spring_damage_of(m, state)
             elif name == "cell_stress":
                 extra = None
                 if self.levers is not None:
