@@ -264,7 +264,7 @@ def _build_and_go(command, path, case, args, lock):
             print(f"  {line}")
         return 0
     if command == "info":
-        return _info(case, model, threads)
+        return _info(case, model, threads, out=args.restart or args.out)
     _stop_if_interrupted()
     return _run(case, model, args, threads, lock)
 
@@ -404,9 +404,11 @@ def _writable(path):
                                                                       stat.S_IWOTH))
 
 
-def _info(case, model, threads):
+def _info(case, model, threads, out=None):
     """Counts, steps, memory and output size of the case, without running
-    (rbsm_dyn/io/estimate.py says how each figure is made)."""
+    (rbsm_dyn/io/estimate.py says how each figure is made).  ``out``: the
+    history a run with the same options writes (--restart, --out; default
+    output.file)."""
     from .io.estimate import estimate, format_bytes
     e = estimate(case, model, extra_observables=_extra_observables(case), threads=threads)
     dt = e.dt_estimate
@@ -432,7 +434,7 @@ def _info(case, model, threads):
           f"state {format_bytes(e.state_bytes)}, output buffers {format_bytes(e.buffer_bytes)}"
           + (f", stiffness matrix {format_bytes(e.matrix_bytes)}" if e.matrix_bytes else "")
           + ")")
-    print(f"output      {format_bytes(e.output_bytes)} -> {case.output.file} "
+    print(f"output      {format_bytes(e.output_bytes)} -> {out or case.output.file} "
           f"({format_bytes(e.static_bytes)} static + {e.frames} frames of "
           f"{format_bytes(e.frame_bytes)}; fields: {', '.join(case.output.fields) or 'none'})")
     return 0
@@ -519,6 +521,7 @@ def _run(case, model, args, threads, lock):
         except OSError as exc:
             print(f"rbsm_dyn: {out}: cannot write the history file ({exc})", file=sys.stderr)
             return 2
+    last = _watch_frames(rec)
     progress = Progress(not args.quiet and sys.stderr.isatty() or (not args.quiet and os.environ.get("RBSM_PROGRESS")))
     t0 = time.perf_counter()
     try:
@@ -580,9 +583,69 @@ def _run(case, model, args, threads, lock):
     if case.solver.mode == "modal":
         modal.write_modes_group(out, res["result"])
     if not args.quiet:
+        units = ("" if case.input_units == "SI" else
+                 f" (history in SI units: m, s, N, Pa, kg; the case is in {case.input_units})")
         print(f"rbsm_dyn: {case.name}: {model.n_bodies} bodies, {model.n_springs} springs, "
-              f"{summary}, {time.perf_counter() - t0:.2f} s -> {out}")
+              f"{summary}, {time.perf_counter() - t0:.2f} s -> {out}{units}")
+        for line in _final_values(case, model, res, last):
+            print(f"  {line}")
     return 0
+
+
+def _watch_frames(rec):
+    """Keep the observables of the last frame the recorder writes (the
+    values printed at the end of a run): a dict with 'time' and 'values'."""
+    last = {}
+    append = rec.append
+
+    def watched(state, step, time_, *rest, **kw):
+        obs = append(state, step, time_, *rest, **kw)
+        last["time"], last["values"] = time_, dict(obs or {})
+        return obs
+
+    rec.append = watched
+    return last
+
+
+#: SI unit of a probe -> (unit, factor) in mm-N-s (values shown in both)
+_MM_UNITS = {"m": ("mm", 1e3), "m s-1": ("mm/s", 1e3), "N": ("N", 1.0), "rad": ("rad", 1.0)}
+
+
+def _final_values(case, model, res, last):
+    """Lines with the probes' values in the last frame (name = value unit)
+    and, for static runs, the reaction and the residual at the end."""
+    import numpy as np
+    from .solvers.output import PROBE_UNITS
+    values = last.get("values") or {}
+    out = []
+    mode = case.solver.mode
+    if mode == "modal" or not values:
+        return out
+    what = {"dynamic": f"t = {last['time']:.6g} s", "static": f"load factor {last['time']:.4g}",
+            "linear": "the solution"}.get(mode, "the end")
+    probes = dict(case.output.probes or {})
+    if probes:
+        out.append(f"probes at {what}:")
+    for name, p in probes.items():
+        if name not in values:
+            continue
+        v = float(values[name])
+        unit = PROBE_UNITS[p.quantity]
+        text = f"  {name} = {v:.6g} {unit}"
+        if case.input_units == "mm-N-s" and unit in _MM_UNITS and _MM_UNITS[unit][1] != 1.0:
+            u, f = _MM_UNITS[unit]
+            text += f" ({v * f:.6g} {u})"
+        out.append(text)
+    if mode == "static":
+        state = res.get("state")
+        if state is not None:
+            r = np.sum(state.body_reaction[:model.n_bodies], axis=0)
+            out.append(f"reaction = [{', '.join(f'{x:.6g}' for x in r)}] N (sum over the "
+                       "supports and prescribed components)")
+        if "residual" in values:
+            out.append(f"residual = {float(values['residual']):.3g} (out-of-balance force / "
+                       f"applied force; tolerance {case.solver.tolerance:g})")
+    return out
 
 
 if __name__ == "__main__":
