@@ -53,7 +53,7 @@ class ContactModel:
     loop_xyz (L, 3) [m], cell_loop_ptr (N+1,) the cell's loop rows),
     face_plane (F, 4) outward unit normal and offset in that frame, radius
     (N,) [m] of the bounding sphere, vert_ptr (N+1,) and vert_xyz (V, 3)
-    [m] each cell's vertices once (its frame) about the centroid, body_e, body_g (N,)
+    [m] each cell's vertices once (its frame), body_size (N,) [m] V^⅓ about the centroid, body_e, body_g (N,)
     [Pa] Young's and shear moduli, body_rigid (N,) uint8, body_part (N,)
     int32 and allowed (P, P) uint8: the parts that may meet.  Springs:
     nbr_key (K,) int64 the pairs a·(N+1) + b tied by springs, spring_pair
@@ -68,6 +68,7 @@ class ContactModel:
     vert_ptr: np.ndarray
     vert_xyz: np.ndarray
     radius: np.ndarray
+    body_size: np.ndarray
     body_e: np.ndarray
     body_g: np.ndarray
     body_rigid: np.ndarray
@@ -141,7 +142,7 @@ def build_contact(case, model, setting):
         cell_face_ptr=cpp, loop_ptr=pptr, loop_xyz=np.ascontiguousarray(local),
         cell_loop_ptr=np.ascontiguousarray(cell_loop_ptr), face_plane=plane,
         vert_ptr=vptr, vert_xyz=np.ascontiguousarray(vert),
-        radius=radius, body_e=young, body_g=young / (2.0 * (1.0 + nu)), body_rigid=rigid,
+        radius=radius, body_size=np.cbrt(model.body_volume), body_e=young, body_g=young / (2.0 * (1.0 + nu)), body_rigid=rigid,
         body_part=body_part, allowed=allowed, nbr_key=nbr_key, spring_pair=spring_pair,
         ground=g, has_ground=ground is not None, mu=float(mu), kfac=float(kfac),
         zeta=float(zeta),
@@ -247,7 +248,8 @@ class ContactState:
         return (self.pairs, self.slip, self.sep, self.out, self.ptr, self.entry,
                 self.body_friction, self.body_dwrench, cm.cell_face_ptr, cm.loop_ptr,
                 cm.loop_xyz, cm.face_plane, cm.cell_loop_ptr, cm.vert_ptr, cm.vert_xyz,
-                cm.radius, cm.body_e, cm.body_g, cm.body_rigid, cm.ground, cm.mu, cm.kfac,
+                cm.radius, cm.body_size, cm.body_e, cm.body_g, cm.body_rigid, cm.ground,
+                cm.mu, cm.kfac,
                 cm.zeta, self.scratch)
 
     def trial(self):
@@ -362,22 +364,20 @@ def contact_stable_dt(model):
     """A stable step bound [s] for a model whose only stiffness is contact
     (no springs: rigid blocks on the ground): each cell against a rigid
     partner over at most half its surface (the largest area a convex cell
-    can press on: its projection, ≤ S/2), the penalty kfac E/l with l its
-    smallest half-width, at a lever of its radius:
-    ω² ≤ 2 k (S/2) (1/m + r²/I_min) (the Gershgorin form of stiffness_check)."""
+    can press on: its projection, ≤ S/2), the penalty k = kfac E/(½ V^⅓)
+    per area of physics/collide.py, at a lever of its radius:
+    ω² ≤ 2 k (S/2) (1/m + r²/I_min) (the Gershgorin form of
+    stiffness_check)."""
     cm = model.contact
     n = model.n_bodies
     loc = cm.loop_xyz
-    starts = cm.cell_loop_ptr[:-1]
-    half = 0.5 * (np.maximum.reduceat(loc, starts, axis=0)
-                  - np.minimum.reduceat(loc, starts, axis=0)).min(axis=1)
     # vector area of each loop: ½ Σ x_i × x_i+1 (Newell), its length summed per cell
     nxt = np.arange(len(loc)) + 1
     ends = cm.loop_ptr[1:] - 1
     nxt[ends] = cm.loop_ptr[:-1]
     va = 0.5 * np.add.reduceat(np.cross(loc, loc[nxt]), cm.loop_ptr[:-1], axis=0)
     area = np.add.reduceat(np.linalg.norm(va, axis=1), cm.cell_face_ptr[:-1])
-    k = cm.kfac * cm.body_e / half
+    k = cm.kfac * cm.body_e / (0.5 * cm.body_size)
     lam = 2.0 * k * 0.5 * area * (1.0 / model.body_mass
                                   + cm.radius ** 2 / model.body_inertia.min(axis=1))
     lam_max = float(lam.max(initial=0.0)) if n else 0.0

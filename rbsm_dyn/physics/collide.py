@@ -19,19 +19,22 @@ between cells and a fixed ground half-space.
   of the two cells, its volume V, centroid c, and S_B, the outward area
   vector of the part of P's boundary on B's faces (the direction B pushes
   A; |S_B| = A_c, the contact area).
-* Force (``contact_forces``, one pair per iteration, independent): normal
-  n = S_B/A_c, mean depth d = V/A_c, a layer of the two half-cells in
-  series (l_a/E_a + l_b/E_b per area, l the half-width of each cell along
-  n; the stiffness of an internal face of the same cells, so a wave crosses
-  a closed contact as it crosses the face: Kawai 1978 eq. 7 form), times
-  ``stiffness``: F_n = k_n A_c d.  Tangential: an elastic slip spring
-  k_t = A_c/(l_a/G_a + l_b/G_b) on the relative displacement at c,
+* Force (``contact_forces``, one pair per iteration, independent): a
+  Winkler layer of stiffness k per area on the face pressed, F_n = k V
+  along n = S_B/A_c at the overlap's centroid c (= k A_c d, d = V/A_c the
+  mean depth, on a flat contact); it stores ½ k ∫δ² dA = k V z̄, z̄ the
+  depth of c below the pressed face.  k: the two half-cells in series,
+  1/(l_a/E_a + l_b/E_b), l = ½ V^⅓ (the stiffness of an internal face of
+  the same cells, so a wave crosses a closed contact as it crosses the
+  face: Kawai 1978 eq. 7 form), times ``stiffness``.  Tangential: an
+  elastic slip spring k_t = A_c/(l_a/G_a + l_b/G_b) on the
+  relative displacement at c,
   integrated from the half-step velocities, returned to the Coulomb cone
   |F_t| ≤ μ F_n with the excess as slip (Cundall & Strack 1979, the broken
   spring's law, laws/contact.py); the slip memory is kept per pair while
   the pair stays in the candidate list.  Both forces act at c on A, their
   opposites at c on B: momentum and angular momentum are conserved to
-  round-off.  Energy: ½ F_n d + ½ k_t |u|² is elastic (the strain term),
+  round-off.  Energy: k V z̄ + ½ k_t |u|² is elastic (the strain term),
   μ F_n |Δslip| is dissipated (the contact_friction observable).
 * Gather (``contact_gather``): per body, its pairs in pair order (a CSR
   built with the pairs), added to its wrench: no atomics, the same sums for
@@ -280,21 +283,31 @@ def _separating_face(a, b, body_pos, body_rot, cell_face_ptr, face_plane, vert_p
     return -1
 
 
-@nb.njit(inline="always", **JIT)
-def _half_width(c, R, n0, n1, n2, cell_loop_ptr, loop_xyz):
-    """Half the extent of cell c along the world direction n (its loop
-    vertices turned by R)."""
-    # n in the body frame: Rᵀ n
-    m0 = R[0, 0] * n0 + R[1, 0] * n1 + R[2, 0] * n2
-    m1 = R[0, 1] * n0 + R[1, 1] * n1 + R[2, 1] * n2
-    m2 = R[0, 2] * n0 + R[1, 2] * n1 + R[2, 2] * n2
-    lo = np.inf
-    hi = -np.inf
-    for k in range(cell_loop_ptr[c], cell_loop_ptr[c + 1]):
-        x = m0 * loop_xyz[k, 0] + m1 * loop_xyz[k, 1] + m2 * loop_xyz[k, 2]
-        lo = min(lo, x)
-        hi = max(hi, x)
-    return 0.5 * (hi - lo)
+@nb.njit(**JIT)
+def _face_depth(a, b, n0, n1, n2, c0, c1, c2, body_pos, body_rot, cell_face_ptr, face_plane):
+    """Depth of the point c below the face (of b, or of a) that faces the
+    contact most squarely: b's face whose outward normal is closest to n
+    (n points out of b into a), or a's closest to −n if that one is
+    closer."""
+    best = -2.0
+    depth = 0.0
+    for side in range(2):
+        c = b if side == 0 else a
+        s = 1.0 if side == 0 else -1.0
+        R = body_rot[c]
+        for f in range(cell_face_ptr[c], cell_face_ptr[c + 1]):
+            q0, q1, q2 = face_plane[f, 0], face_plane[f, 1], face_plane[f, 2]
+            m0 = R[0, 0] * q0 + R[0, 1] * q1 + R[0, 2] * q2
+            m1 = R[1, 0] * q0 + R[1, 1] * q1 + R[1, 2] * q2
+            m2 = R[2, 0] * q0 + R[2, 1] * q1 + R[2, 2] * q2
+            cos = s * (m0 * n0 + m1 * n1 + m2 * n2)
+            if cos > best:
+                best = cos
+                # plane m·x = d + m·p_c (world); c lies inside the cell
+                off = face_plane[f, 3] + m0 * body_pos[c, 0] + m1 * body_pos[c, 1] \
+                    + m2 * body_pos[c, 2]
+                depth = off - (m0 * c0 + m1 * c1 + m2 * c2)
+    return depth
 
 
 @nb.njit(inline="always", **JIT)
@@ -313,8 +326,8 @@ def _spin(i, body_rot, body_angmom, body_inertia):
 @nb.njit(**JIT)
 def _pair_force(p, pairs, slip, sep, out, dt, body_pos, body_rot, body_vel, body_angmom,
                 body_inertia, body_mass, cell_face_ptr, loop_ptr, loop_xyz, face_plane,
-                cell_loop_ptr, vert_ptr, vert_xyz, radius, body_e, body_g, body_rigid, ground,
-                mu, kfac, zeta, scratch):
+                cell_loop_ptr, vert_ptr, vert_xyz, radius, body_size, body_e, body_g,
+                body_rigid, ground, mu, kfac, zeta, scratch):
     n = radius.shape[0]
     a = pairs[p, 0]
     b = pairs[p, 1]
@@ -346,21 +359,32 @@ def _pair_force(p, pairs, slip, sep, out, dt, body_pos, body_rot, body_vel, body
         return
     n0, n1, n2 = s0 / area, s1 / area, s2 / area
     depth = vol / area
-    # the two half-cells in series along n (a rigid cell adds nothing,
-    # unless both are rigid; the ground adds nothing)
-    la = _half_width(a, body_rot[a], n0, n1, n2, cell_loop_ptr, loop_xyz)
+    # compliance per area of the two half-cells in series, l = ½ V^⅓ each
+    # (a rigid cell adds nothing unless both are rigid; the ground nothing)
+    la = 0.5 * body_size[a]
     cn = la / body_e[a]
     ct = la / body_g[a]
     both_rigid = body_rigid[a] != 0 and (b == n or body_rigid[b] != 0)
     if body_rigid[a] != 0 and not both_rigid:
         cn = ct = 0.0
     if b < n and (body_rigid[b] == 0 or both_rigid):
-        lb = _half_width(b, body_rot[b], n0, n1, n2, cell_loop_ptr, loop_xyz)
+        lb = 0.5 * body_size[b]
         cn += lb / body_e[b]
         ct += lb / body_g[b]
-    kn = kfac * area / cn
-    kt = kfac * area / ct
-    fn = kn * depth
+    kpa = kfac / cn                   # [N/m³]
+    kn = kpa * area                   # [N/m]
+    kt = kfac / ct * area
+    # a Winkler layer (k per area) on the flat face the other cell presses
+    # into: F = k ∫δ dA = k V at the overlap's centroid, and it stores
+    # ½ k ∫δ² dA = k V z̄, z̄ the depth of the centroid below that face
+    # (∫δ² dA = 2 ∫_V z dV); the face: the one of a or b whose normal is
+    # closest to ∓n (a face pressed by an edge or a corner of the other)
+    fn = kpa * vol
+    if b == n:
+        zbar = ground[3] - (ground[0] * c0 + ground[1] * c1 + ground[2] * c2)
+    else:
+        zbar = _face_depth(a, b, n0, n1, n2, c0, c1, c2, body_pos, body_rot, cell_face_ptr,
+                           face_plane)
     # relative velocity of a's material point at c against b's (half step)
     wa0, wa1, wa2 = _spin(a, body_rot, body_angmom, body_inertia)
     ra0, ra1, ra2 = c0 - body_pos[a, 0], c1 - body_pos[a, 1], c2 - body_pos[a, 2]
@@ -423,7 +447,7 @@ def _pair_force(p, pairs, slip, sep, out, dt, body_pos, body_rot, body_vel, body
     out[p, O_C] = c0
     out[p, O_C + 1] = c1
     out[p, O_C + 2] = c2
-    out[p, O_E] = 0.5 * kn * depth * depth + 0.5 * kt * (u0 * u0 + u1 * u1 + u2 * u2)
+    out[p, O_E] = kpa * vol * max(zbar, 0.0) + 0.5 * kt * (u0 * u0 + u1 * u1 + u2 * u2)
     out[p, O_W] = diss
     out[p, O_A] = area
     out[p, O_K] = kn
@@ -435,8 +459,8 @@ def _pair_force(p, pairs, slip, sep, out, dt, body_pos, body_rot, body_vel, body
 @nb.njit(parallel=True, **JIT)
 def contact_forces(pairs, slip, sep, out, dt, body_pos, body_rot, body_vel, body_angmom,
                    body_inertia, body_mass, cell_face_ptr, loop_ptr, loop_xyz, face_plane,
-                   cell_loop_ptr, vert_ptr, vert_xyz, radius, body_e, body_g, body_rigid,
-                   ground, mu, kfac, zeta, scratch):
+                   cell_loop_ptr, vert_ptr, vert_xyz, radius, body_size, body_e, body_g,
+                   body_rigid, ground, mu, kfac, zeta, scratch):
     """Force of every candidate pair (see module) into ``out`` (P, N_OUT),
     slip memory updated in ``slip``.  Pairs split into len(scratch) equal
     blocks, one per block of scratch: each pair's result depends on it
@@ -450,7 +474,7 @@ def contact_forces(pairs, slip, sep, out, dt, body_pos, body_rot, body_vel, body
             _pair_force(p, pairs, slip, sep, out, dt, body_pos, body_rot, body_vel,
                         body_angmom, body_inertia, body_mass, cell_face_ptr, loop_ptr,
                         loop_xyz, face_plane, cell_loop_ptr, vert_ptr, vert_xyz, radius,
-                        body_e, body_g, body_rigid, ground, mu, kfac, zeta, scratch[t])
+                        body_size, body_e, body_g, body_rigid, ground, mu, kfac, zeta, scratch[t])
 
 
 @nb.njit(parallel=True, **JIT)
@@ -524,8 +548,8 @@ def contact_gather(ptr, entry, pairs, out, dt, body_pos, body_vel, body_angmom, 
 def contact_step(dt, body_pos, body_rot, body_vel, body_angmom, body_inertia, body_mass,
                  body_wrench, body_damp, overwrite, commit, pairs, slip, sep, out, ptr, entry,
                  body_friction, body_dwrench, cell_face_ptr, loop_ptr, loop_xyz, face_plane,
-                 cell_loop_ptr, vert_ptr, vert_xyz, radius, body_e, body_g, body_rigid, ground,
-                 mu, kfac, zeta, scratch):
+                 cell_loop_ptr, vert_ptr, vert_xyz, radius, body_size, body_e, body_g,
+                 body_rigid, ground, mu, kfac, zeta, scratch):
     """One step's contact: the pair forces, then each body's sum added to
     its wrench (the arguments after ``commit``: contact_model.ContactState
     .args)."""
@@ -539,8 +563,8 @@ def contact_step(dt, body_pos, body_rot, body_vel, body_angmom, body_inertia, bo
         return
     contact_forces(pairs, slip, sep, out, dt, body_pos, body_rot, body_vel, body_angmom,
                    body_inertia, body_mass, cell_face_ptr, loop_ptr, loop_xyz, face_plane,
-                   cell_loop_ptr, vert_ptr, vert_xyz, radius, body_e, body_g, body_rigid,
-                   ground, mu, kfac, zeta, scratch)
+                   cell_loop_ptr, vert_ptr, vert_xyz, radius, body_size, body_e, body_g,
+                   body_rigid, ground, mu, kfac, zeta, scratch)
     contact_gather(ptr, entry, pairs, out, dt, body_pos, body_vel, body_angmom, body_rot,
                    body_inertia, body_wrench, body_damp, body_friction, body_dwrench,
                    overwrite, commit)

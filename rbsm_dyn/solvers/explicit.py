@@ -189,7 +189,7 @@ _NO_CONTACT = (np.zeros((0, 2), np.int32), np.zeros((0, 3)), np.zeros(0, np.int3
                np.zeros(1, np.int64), np.zeros(0, np.int64), np.zeros(0), np.zeros((0, 6)),
                np.zeros(1, np.int64), np.zeros(1, np.int64), np.zeros((0, 3)), np.zeros((0, 4)),
                np.zeros(1, np.int64), np.zeros(1, np.int64), np.zeros((0, 3)),
-               np.zeros(0), np.zeros(0), np.zeros(0),
+               np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0),
                np.zeros(0, np.uint8), np.zeros(4), 0.0, 1.0, 0.0, np.zeros((1, 1, 3)))
 
 
