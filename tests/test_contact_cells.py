@@ -344,3 +344,32 @@ def test_restart_of_a_contact_run_is_refused(tmp_path, capsys):
     assert main([str(path), "--out", str(out), "--quiet"]) == 0
     assert main([str(path), "--restart", str(out), "--quiet"]) == 2
     assert "contact cannot be restarted" in capsys.readouterr().err
+
+
+def test_info_of_a_scene_held_by_contact_only(capsys):
+    """Three free rigid blocks with contact and no springs: `info` gives
+    the contact's stable step (finite) instead of failing on a zero
+    stiffness matrix (ω_max = 0: no spring resists any motion)."""
+    from rbsm_dyn.__main__ import main
+    from rbsm_dyn.solvers.modal import omega_max
+    text = textwrap.dedent("""
+    name: info4
+    parts:
+      a: {geometry: {box: [[0, 0, 0], [0.1, 0.1, 0.1]]}, mesh: {kind: rigid}, material: stone}
+      b: {geometry: {box: [[0.2, 0, 0], [0.3, 0.1, 0.1]]}, mesh: {kind: rigid}, material: stone}
+      c: {geometry: {box: [[0.4, 0, 0], [0.5, 0.1, 0.1]]}, mesh: {kind: rigid}, material: stone}
+    materials: {stone: {density: 2000, young: 5.0e9, poisson: 0.2}}
+    contact: {between: all}
+    solver: {mode: dynamic, end_time: 0.01}
+    """)
+    assert omega_max(build_model(load_case_text(text))) == 0.0
+    import tempfile
+    import os
+    with tempfile.TemporaryDirectory() as d:
+        path = os.path.join(d, "info4.yaml")
+        with open(path, "w") as f:
+            f.write(text)
+        assert main(["info", path]) == 0
+    out = capsys.readouterr().out
+    dt = float(out.split("stable dt")[1].split()[0])
+    assert 0 < dt < 1.0

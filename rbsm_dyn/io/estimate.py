@@ -63,7 +63,8 @@ class Estimate:
     n_bodies: int
     n_springs: int
     n_supports: int
-    dt_estimate: float            #: Model.stable_dt() [s]
+    dt_estimate: float            #: Model.stable_dt() [s] (contact's own bound for a
+    #:                               model without springs, solvers/explicit.choose_dt)
     dt: float | None              #: step used (dynamic) [s]
     steps: int | None             #: steps to the end time (dynamic)
     out_every: int | None         #: steps between frames (dynamic)
@@ -121,6 +122,16 @@ def array_bytes(obj, _seen=None) -> int:
 
     visit(obj, 0)
     return total
+
+
+def _stable_dt(model):
+    """The stable step estimate a run takes (solvers/explicit.choose_dt):
+    the springs', or with contact and no springs, the contact's."""
+    est = float(model.stable_dt())
+    if model.contact is not None and model.n_springs == 0:
+        from ..contact_model import contact_stable_dt
+        est = min(est, float(contact_stable_dt(model)))
+    return est
 
 
 def count_frames(case, model):
@@ -212,7 +223,7 @@ def estimate(case, model, *, extra_observables=None, threads=1) -> Estimate:
         matrix = 2 * 12 * nnz
     return Estimate(mode=case.solver.mode, n_bodies=model.n_bodies,
                     n_springs=model.n_springs, n_supports=int(model.is_support.sum()),
-                    dt_estimate=float(model.stable_dt()), dt=dt, steps=steps,
+                    dt_estimate=_stable_dt(model), dt=dt, steps=steps,
                     out_every=every, frames=frames, static_bytes=int(static_bytes),
                     frame_bytes=float(frame_bytes), output_bytes=int(output),
                     model_bytes=int(model_bytes), state_bytes=int(state_bytes),

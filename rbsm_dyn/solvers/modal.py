@@ -83,7 +83,9 @@ def omega_max(model, *, K=None, M=None, tol=1e-8):
 
 def _omega_max(Kff, Mff, tol=1e-8):
     n = Kff.shape[0]
-    if n == 0:
+    if n == 0 or Kff.nnz == 0 or not np.any(Kff.data):
+        # no stiffness (free rigid bodies, or cells held by contact only):
+        # every frequency is 0 (ARPACK stops on a zero operator)
         return 0.0
     if n <= 12:
         lam = np.linalg.eigvals(np.linalg.solve(Mff.toarray(), Kff.toarray())).real.max()
