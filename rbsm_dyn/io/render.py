@@ -359,8 +359,10 @@ def build_plotter(path, *, frame: int = -1, scale: float | None = None,
                   f"broken at 1); black: pre-cut notch ({n_notch})"
                   + (f"; blue: yielded faces ({n_yield})" if n_yield else ""))
     else:
-        legend = (f"red: cracks formed in the run ({n_broken - n_notch}), black: pre-cut "
-                  f"notch ({n_notch}), orange: yielded faces ({n_yield})")
+        kinds = [f"red: cracks formed in the run ({n_broken - n_notch})" if n_broken > n_notch
+                 else "", f"black: pre-cut notch ({n_notch})" if n_notch else "",
+                 f"orange: yielded faces ({n_yield})" if n_yield else ""]
+        legend = ", ".join(k for k in kinds if k) or "no broken or yielded faces"
     text = (f"{name}: frame {fi}, {tlabel}\n"
             f"displacement magnified x {_fmt_scale(scale)} (largest: {max_u:.3g} m)"
             + (f"; colour: {label}" if color != "displacement" else "") + "\n" + legend)
@@ -570,8 +572,10 @@ def plot(path, *, out=None, max_probes: int = 6) -> dict:
     """Energies and probes of history ``path`` over time, one PNG
     (matplotlib, Agg).  Reads only the observables it draws, in slices
     (read_observables: bounded memory whatever the file's size).  Returns
-    ``{"out", "probes", "balance_error"}`` (balance_error: largest |error| /
-    largest supplied energy)."""
+    ``{"out", "probes", "balance_error", "mode", "frequencies"}``
+    (balance_error: largest |error| / largest supplied energy; None for a
+    modal history, whose picture is its frequencies (frequencies [Hz],
+    else None) and probes by mode, no energies)."""
     try:
         import matplotlib
     except ImportError as exc:
@@ -584,10 +588,12 @@ def plot(path, *, out=None, max_probes: int = 6) -> dict:
     names = _observable_names(path)
     probes = [n for n in names if n not in NOT_PROBES][:max_probes]
     case, obs, (te, error), big_err, sup, units = read_observables(
-        path, probes + ["n_broken", "residual"])
+        path, probes + ["n_broken", "residual", "frequency"])
     probes = [n for n in probes if n in obs]
     mode = case.get("solver", {}).get("mode", "dynamic")
-    xlabel = {"static": "load factor λ", "modal": "mode", "linear": "frame"}.get(mode, "time [s]")
+    if mode == "modal":
+        return _plot_modal(path, out, case, obs, probes, units, plt)
+    xlabel = {"static": "load factor λ", "linear": "frame"}.get(mode, "time [s]")
     extra = [n for n in ("n_broken", "residual") if n in obs and np.any(obs[n][1])]
     n_panels = 1 + len(probes) + len(extra)
     fig, axes = plt.subplots(n_panels, 1, sharex=True, figsize=(8, 2.4 + 2.0 * n_panels),
@@ -597,7 +603,11 @@ def plot(path, *, out=None, max_probes: int = 6) -> dict:
     for key, label in ENERGIES:
         if key in obs and np.any(obs[key][1] != 0):
             ax.plot(*obs[key], label=label)
-    ax.plot(te, error, "k--", lw=1, label="balance error")
+    # static and linear runs book the work of the loads along the load path
+    # (docs/history.md): at each converged step it equals strain +
+    # dissipation, so the balance means what it does in a dynamic run
+    ax.plot(te, error, "k--", lw=1, label="balance error"
+            + (" (at equilibrium)" if mode in ("static", "linear") else ""))
     rel = big_err / sup if sup > 0 else 0.0
     ax.set_ylabel("energy [J]")
     ax.set_title(f"{case.get('name') or path.stem}: energies (balance error ≤ {rel:.2%} "
@@ -614,7 +624,64 @@ def plot(path, *, out=None, max_probes: int = 6) -> dict:
     out.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(out, dpi=100)
     plt.close(fig)
-    return {"out": str(out), "probes": probes, "balance_error": rel}
+    return {"out": str(out), "probes": probes, "balance_error": rel, "mode": mode,
+            "frequencies": None}
+
+
+def _modal_frequencies(path, obs):
+    """(mode numbers, frequencies [Hz]) of a modal history: /modes/frequency
+    when written (at the end of the run), else the frequency observable of
+    frames 1..M."""
+    import h5py
+    from .history import _open_h5
+    f = _open_h5(str(path))
+    with f:
+        if "modes" in f and "frequency" in f["modes"]:
+            fr = np.asarray(f["modes"]["frequency"][()], np.float64).reshape(-1)
+            return np.arange(1, len(fr) + 1), fr
+    if "frequency" in obs:
+        k, fr = obs["frequency"]
+        keep = np.asarray(k) >= 1
+        return np.rint(np.asarray(k)[keep]).astype(int), np.asarray(fr, np.float64)[keep]
+    return np.zeros(0, int), np.zeros(0)
+
+
+def _plot_modal(path, out, case, obs, probes, units, plt):
+    """A modal history: its natural frequencies against the mode number
+    (each written on its bar) and each probe's value in each mode shape
+    (drawn at the display amplitude).  No energies: the strain energy of a
+    shape drawn at an arbitrary amplitude balances nothing."""
+    modes, freq = _modal_frequencies(path, obs)
+    n_panels = 1 + len(probes)
+    fig, axes = plt.subplots(n_panels, 1, sharex=True, figsize=(8, 2.6 + 2.0 * n_panels),
+                             squeeze=False)
+    axes = axes[:, 0]
+    ax = axes[0]
+    if len(freq):
+        bars = ax.bar(modes, freq, color="C0", width=0.6)
+        ax.bar_label(bars, labels=[f"{v:.4g}" for v in freq], fontsize=8, padding=2)
+        ax.set_ylim(0, 1.15 * float(np.max(freq)) if np.max(freq) > 0 else 1.0)
+    ax.set_ylabel("natural frequency [Hz]")
+    ax.set_title(f"{case.get('name') or path.stem}: {len(freq)} natural frequencies"
+                 + (f" (f1 = {freq[0]:.4g} Hz)" if len(freq) else ""), fontsize=10)
+    ax.grid(alpha=0.3, axis="y")
+    for ax, name in zip(axes[1:], probes):
+        k, v = obs[name]
+        keep = np.asarray(k) >= 1
+        unit = units.get(name, "1")
+        ax.plot(np.asarray(k)[keep], np.asarray(v)[keep], "o", color="C0")
+        ax.axhline(0.0, color="0.5", lw=0.8)
+        ax.set_ylabel(f"{name} [{unit}]" if unit != "1" else name)
+        ax.grid(alpha=0.3)
+    axes[-1].set_xlabel("mode")
+    if len(modes):
+        axes[-1].set_xticks(modes)
+    fig.tight_layout()
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=100)
+    plt.close(fig)
+    return {"out": str(out), "probes": probes, "balance_error": None, "mode": "modal",
+            "frequencies": [float(v) for v in freq]}
 
 
 def _observable_names(path):
@@ -634,6 +701,7 @@ def _observable_names(path):
 
 # ------------------------------------------------------------------- CLI
 def add_arguments(p) -> None:
+    p.description = RENDER_DESCRIPTION
     p.add_argument("history", help="history file (RUN.h5)")
     p.add_argument("--frame", type=int, default=-1, metavar="K",
                    help="frame to draw (negative counts from the end; default the last)")
@@ -644,9 +712,13 @@ def add_arguments(p) -> None:
                    help=f"picture size in pixels, {SIZE_MIN} to {SIZE_MAX} each "
                         "(default 1600 800)")
     p.add_argument("--color", "--colour", choices=COLORS, default="displacement",
-                   help="colour the cells by the displacement magnitude (default) or by "
-                        "their stress (needs the cell_stress field): a component sxx ... sxz, "
-                        "von_mises, principal_max, principal_mid, principal_min")
+                   metavar="C",
+                   help="colour the cells by the displacement magnitude (displacement, the "
+                        "default) or a component (ux, uy, uz); by their stress (needs the "
+                        "cell_stress field): a component sxx, syy, szz, sxy, syz, sxz, or "
+                        "von_mises, principal_max, principal_mid, principal_min; or draw them "
+                        "grey with their faces coloured by damage (damage: needs the "
+                        "spring_damage field)")
     p.add_argument("--quiet", action="store_true", help="print nothing on success")
 
 
@@ -675,14 +747,18 @@ def main(args) -> int:
         print(f"rbsm_dyn: render: {exc}", file=sys.stderr)
         return 2
     if not args.quiet:
-        print(f"rbsm_dyn: frame {res['frame']} (t = {res['time']:.4g}): displacement "
+        what = (res["title"] if res["mode"] in ("modal", "static", "linear")
+                else f"t = {res['time']:.4g}")
+        print(f"rbsm_dyn: frame {res['frame']} ({what}): displacement "
               f"magnified x {_fmt_scale(res['scale'])} (largest {res['max_displacement']:.3g} m), "
-              f"{res['n_broken_faces']} broken and {res['n_yielded_faces']} yielded faces "
+              f"{res['n_broken_faces']} broken ({res['n_notch_faces']} of them pre-cut) and "
+              f"{res['n_yielded_faces']} yielded faces; scale bar {res['scale_bar'][1]} "
               f"-> {res['out']}")
     return 0
 
 
 def add_plot_arguments(p) -> None:
+    p.description = PLOT_DESCRIPTION
     p.add_argument("history", help="history file (RUN.h5)")
     p.add_argument("--out", metavar="PNG", help="picture file (default RUN_plot.png)")
     p.add_argument("--quiet", action="store_true", help="print nothing on success")
@@ -703,6 +779,12 @@ def main_plot(args) -> int:
         print(f"rbsm_dyn: plot: {exc}", file=sys.stderr)
         return 2
     if not args.quiet:
-        print(f"rbsm_dyn: energies and {len(res['probes'])} probes "
-              f"(energy balance error ≤ {res['balance_error']:.2%}) -> {res['out']}")
+        if res["mode"] == "modal":
+            fr = res["frequencies"] or []
+            print(f"rbsm_dyn: {len(fr)} natural frequencies"
+                  + (f" ({fr[0]:.4g} to {fr[-1]:.4g} Hz)" if fr else "")
+                  + f" and {len(res['probes'])} probes by mode -> {res['out']}")
+        else:
+            print(f"rbsm_dyn: energies and {len(res['probes'])} probes "
+                  f"(energy balance error ≤ {res['balance_error']:.2%}) -> {res['out']}")
     return 0
