@@ -1,0 +1,175 @@
+"""Every case in cases/ states an expected answer in its header comment;
+this table names the test that computes it (issue 17: "a table in tests/
+mapping case → test").
+
+The test asserts that (i) every cases/*.yaml is in the table and the table
+names no case that is not there, (ii) each test it names exists (the
+module imports, the function is in it), and a test said to read the case
+file does name it, (iii) each case validates with ``load_case_text`` and
+runs 3 steps from the command line (``--max-steps 3``: dynamic steps,
+static iterations; linear and modal runs solve at once and ignore it).
+
+``reads_case``: True when the test runs the case file itself (or the case
+file with one value changed, said in ``note``); False when it runs the same
+problem from its own text (the same reference, mesh and tolerance as the
+header states, written out in the test).  ``note`` also says which part of
+a header's figures no test computes.
+"""
+from __future__ import annotations
+
+import importlib
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+import pytest
+
+import rbsm_dyn
+from rbsm_dyn.__main__ import main
+from rbsm_dyn.case import load_case
+
+ROOT = Path(__file__).resolve().parent.parent
+CASES = ROOT / "cases"
+
+
+class Check(NamedTuple):
+    answer: str              # the expected answer the header states
+    tests: tuple[str, ...]   # "tests/<module>.py::<function>", the first the main one
+    reads_case: bool         # the tests run cases/<case> itself (see the module docstring)
+    note: str = ""
+
+
+TABLE: dict[str, Check] = {
+    "bar_wave.yaml": Check(
+        "the front reaches x = 0.5 m at (0.5 − 0.0025)/c0 ≈ 1.0e-4 s, c0 = √(E/ρ) (within 2 %)",
+        ("tests/test_dynamics.py::test_D1_bar_wave_arrival",),
+        reads_case=True),
+    "branching_glass.yaml": Check(
+        "the crack runs below c_R, at 0.5–0.65 c_R before it branches near x = 70–80 mm "
+        "(Ha & Bobaru 2010)",
+        ("tests/test_fracture_cases.py::test_glass_crack_branches",
+         "tests/test_fracture_cases.py::test_glass_crack_runs_below_the_rayleigh_speed",
+         "tests/test_fracture_cases.py::test_glass_energy_balance"),
+        reads_case=True),
+    "brazilian_disc.yaml": Check(
+        "elastic centre stresses 2P/(πDt) and −6P/(πDt) within 5 %; splits along the "
+        "loaded diameter at 2P/(πDt) = 3.75 MPa = 1.25 f_t",
+        ("tests/test_brazilian_disc.py::test_centre_stresses_of_the_brazilian_disc",),
+        reads_case=False,
+        note="the test is the elastic disc of the header (linear mode, its own text); "
+             "the splitting load of the case's dynamic run is computed by no test"),
+    "cantilever_modes.yaml": Check(
+        "first bending frequency 80.8 Hz (Euler–Bernoulli; 80.24 Hz measured), first axial "
+        "mode c0/(4L) = 1250 Hz",
+        ("tests/test_linear_modal.py::test_cantilever_first_bending_frequency",
+         "tests/test_linear_modal.py::test_axial_fixed_free_bar_D3"),
+        reads_case=False,
+        note="the same beam from the tests' own text (40 × 4 and 40 × 2 blocks)"),
+    "cantilever_static.yaml": Check(
+        "tip deflection P x³/(3EI) + P x/(κGA) = 1.94e-3 m within about 1 % (VERIFICATION A2)",
+        ("tests/test_statics.py::test_A2_cantilever_converges_under_refinement",
+         "tests/test_statics.py::test_A2_cantilever_two_blocks_deep"),
+        reads_case=False,
+        note="the same beam, load and 40 × 1 × 4 blocks from the test's own text "
+             "(error < 0.2 % there)"),
+    "dynamic_crack.yaml": Check(
+        "the crack tip never runs faster than c_R and settles near 0.5–0.65 c_R",
+        ("tests/test_fracture.py::test_E2_crack_runs_below_the_rayleigh_speed",
+         "tests/test_fracture.py::test_energy_balance_with_fracture"),
+        reads_case=True),
+    "impact_plate.yaml": Check(
+        "Σmv = Mv0 to round-off; the striker slows as v0 e^(−t/τ), τ = M/(ρc0A); the "
+        "plate spalls from the crack tips; G of springs broken at their peak; energy balance",
+        ("tests/test_contact_cases.py::test_impact_momentum_exchange",
+         "tests/test_contact_cases.py::test_impact_striker_slows_as_a_mass_on_an_elastic_bar",
+         "tests/test_contact_cases.py::test_impact_spall_starts_at_the_crack_tips",
+         "tests/test_contact_cases.py::test_impact_fracture_energy_of_springs_broken_at_their_peak",
+         "tests/test_contact_cases.py::test_impact_energy_balance"),
+        reads_case=True),
+    "impulsive_beam.yaml": Check(
+        "W_f and T above the rigid-plastic m V0² L²/(3 Mp) = 20.91 mm and m V0 L²/(2 Mp) "
+        "= 2.24 ms (VERIFICATION C1)",
+        ("tests/test_plastic.py::test_C1_simply_supported_impulsive_beam",),
+        reads_case=True,
+        note="the test runs the case with E = 1000 GPa (E/σ0 = 10⁴, VERIFICATION C3) and "
+             "checks W_f within +20 %, T within 25 %; the header's figures at E = 200 GPa "
+             "(W_f ≈ 23 mm, T ≈ 2.4 ms) are computed by no test"),
+    "kalthoff_winkler.yaml": Check(
+        "the crack leaves the notch tip at ≈ 70° to the notch (60–70° in simulations)",
+        ("tests/test_fracture_cases.py::test_kw_crack_leaves_the_notch_at_60_to_75_degrees",
+         "tests/test_fracture_cases.py::test_kw_crack_starts_at_the_notch_tip",
+         "tests/test_fracture_cases.py::test_kw_energy_balance"),
+        reads_case=True),
+    "masonry_arch.yaml": Check(
+        "P_c = 0.533 W (Heyman), hinges at joints 1, 4, 8, 11; stands under its weight and "
+        "0.7 P_c; folds at 1.3 P_c about the predicted hinges",
+        ("tests/test_contact_cases.py::test_arch_limit_analysis",
+         "tests/test_contact_cases.py::test_arch_stands_under_its_own_weight",
+         "tests/test_contact_cases.py::test_arch_stands_below_the_collapse_load",
+         "tests/test_contact_cases.py::test_arch_collapses_above_in_the_four_hinge_mechanism"),
+        reads_case=True),
+    "thick_cylinder.yaml": Check(
+        "Lamé: u_r(a) = 41.7 µm, u_r(b) = 33.3 µm (walls within 3 %)",
+        ("tests/test_surface_loads.py::test_lame_thick_cylinder_under_internal_pressure",),
+        reads_case=False,
+        note="the same quarter pipe slice from the test's own text"),
+    "three_point_bending.yaml": Check(
+        "elastic CMOD/P = 2.97e-8 m/N (Tada, Paris & Irwin 2.13); peak 1.02 kN, work of "
+        "fracture → G_f = 100 J/m²",
+        ("tests/test_parts.py::test_beam_on_rigid_rollers_under_a_rigid_platen",),
+        reads_case=False,
+        note="the test checks the same scene (a beam on two rigid rollers under a rigid "
+             "platen, contact interfaces) against the elastic deflection "
+             "PL³/(48EI) + PL/(4κGA); the case's CMOD/P, peak load and work of fracture "
+             "(a 86–155 s run) are computed by no test"),
+}
+
+
+def _function(ref: str):
+    path, _, name = ref.partition("::")
+    module = importlib.import_module(Path(path).with_suffix("").as_posix().replace("/", "."))
+    return module, getattr(module, name, None)
+
+
+def test_every_case_is_in_the_table():
+    on_disk = sorted(p.name for p in CASES.glob("*.yaml"))
+    missing = [c for c in on_disk if c not in TABLE]
+    assert not missing, (f"cases/ has cases the table of tests/test_cases_table.py does not "
+                         f"name (add the test that checks each one's stated answer): {missing}")
+    gone = [c for c in TABLE if c not in on_disk]
+    assert not gone, f"the table names cases that are not in cases/: {gone}"
+
+
+@pytest.mark.parametrize("case", sorted(TABLE))
+def test_the_tests_named_exist(case):
+    check = TABLE[case]
+    assert check.tests, f"{case}: no test named"
+    for ref in check.tests:
+        assert ref.startswith("tests/") and "::" in ref, f"{case}: {ref!r} is not module::function"
+        assert (ROOT / ref.partition("::")[0]).is_file(), f"{case}: no file {ref.partition('::')[0]}"
+        module, func = _function(ref)
+        assert callable(func) and func.__name__.startswith("test_"), (
+            f"{case}: {ref} names no test function in {module.__name__}")
+    if check.reads_case:
+        module, _ = _function(check.tests[0])
+        source = Path(module.__file__).read_text(encoding="utf-8")
+        assert case in source, (f"{case}: the table says {check.tests[0]} runs the case file, "
+                                f"but {module.__name__} never names {case}")
+
+
+@pytest.mark.parametrize("case", sorted(TABLE))
+def test_case_loads_and_runs_three_steps(case, tmp_path):
+    path = CASES / case
+    assert path.is_file(), f"cases/{case} is not there (yet)"
+    assert path.read_text(encoding="utf-8").startswith("#"), (
+        f"cases/{case} does not start with its header comment")
+    c = load_case(path)
+    assert c.name, f"cases/{case}: no name"
+    out = tmp_path / "run.h5"
+    code = main([str(path), "--out", str(out), "--max-steps", "3", "--quiet"])
+    assert code == 0, f"cases/{case}: `python -m rbsm_dyn {case} --max-steps 3` exited {code}"
+    h = rbsm_dyn.open_history(out)
+    assert h.frames >= 2, f"cases/{case}: {h.frames} frame(s) after 3 steps"
+    assert np.all(np.isfinite(h.position)), f"cases/{case}: non-finite positions"
+    if c.solver.mode == "dynamic":
+        assert h.step[-1] == 3, f"cases/{case}: the run stopped at step {h.step[-1]}, not 3"
