@@ -19,8 +19,8 @@ largest displacement shows as about 4 % of the domain size, rounded to 1,
 2 or 5 × 10^n, never below 1); the factor is printed and written in the
 picture.  Faces on which a spring broke during the run are drawn red
 (their edges too, so that a crack shows through the cells), faces broken
-from the start (a ``cuts`` notch: spring state >= 2 in frame 0) black,
-yielded faces orange.  Every picture has an axes triad (lower left) and a
+from the start (a ``cuts`` notch, contact interfaces between parts: spring
+state >= 2 in frame 0) black, yielded faces orange.  Every picture has an axes triad (lower left) and a
 length scale bar under the cells (of the undeformed lengths; a round 1, 2
 or 5 × 10^n m).  The view looks along the thinnest side of the domain (y
 on a tie), z up.  A modal history's picture names the mode and its
@@ -65,15 +65,17 @@ __all__ = ["render", "build_plotter", "plot", "auto_scale", "nice_length", "Rend
 RENDER_DESCRIPTION = (
     "Draw one frame of a history (default the last) to a PNG, off-screen: the deformed "
     "cells coloured by their displacement (magnitude or a component), their stress or the "
-    "damage of their faces; cracks formed in the run red, the pre-cut notch black, yielded "
-    "faces orange; an axes triad and a length scale bar.")
+    "damage of their faces; cracks formed in the run red, faces broken from the start (a "
+    "notch cut before the run) black, yielded faces orange; an axes triad and a length "
+    "scale bar.")
 PLOT_DESCRIPTION = (
     "Draw the energies with their balance and each probe over time (over the load factor "
     "in a static run) to a PNG with matplotlib; for a modal run the natural frequencies "
     "and the probes against the mode number.")
 
-#: face colours: cracks formed during the run, the pre-cut notch (broken
-#: in frame 0), yielded faces (and, in the damage picture, yielded faces
+#: face colours: cracks formed during the run, faces broken from the start
+#: (a cuts notch, contact interfaces between parts: state >= 2 in frame 0),
+#: yielded faces (and, in the damage picture, yielded faces
 #: with no damage, since the damage colours run through orange)
 CRACK_COLOR, NOTCH_COLOR, YIELD_COLOR, YIELD_COLOR_DAMAGE = "red", "black", "orange", "deepskyblue"
 STATE_COLORS = {1: YIELD_COLOR, 2: CRACK_COLOR, 3: CRACK_COLOR}
@@ -356,11 +358,11 @@ def build_plotter(path, *, frame: int = -1, scale: float | None = None,
     tlabel = _frame_label(h, case, mode)
     if color == "damage":
         legend = (f"faces coloured by damage ({n_damaged} softening, {n_broken - n_notch} "
-                  f"broken at 1); black: pre-cut notch ({n_notch})"
+                  f"broken at 1); black: broken from the start ({n_notch})"
                   + (f"; blue: yielded faces ({n_yield})" if n_yield else ""))
     else:
         kinds = [f"red: cracks formed in the run ({n_broken - n_notch})" if n_broken > n_notch
-                 else "", f"black: pre-cut notch ({n_notch})" if n_notch else "",
+                 else "", f"black: broken from the start ({n_notch})" if n_notch else "",
                  f"orange: yielded faces ({n_yield})" if n_yield else ""]
         legend = ", ".join(k for k in kinds if k) or "no broken or yielded faces"
     text = (f"{name}: frame {fi}, {tlabel}\n"
