@@ -20,9 +20,9 @@ largest displacement shows as about 4 % of the domain size, rounded to 1,
 picture.  Faces on which a spring broke during the run are drawn red
 (their edges too, so that a crack shows through the cells), faces broken
 from the start (a ``cuts`` notch, contact interfaces between parts: spring
-state >= 2 in frame 0) black, yielded faces orange.  Every picture has an axes triad (lower left) and a
-length scale bar under the cells (of the undeformed lengths; a round 1, 2
-or 5 × 10^n m).  The view looks along the thinnest side of the domain (y
+state >= 2 in frame 0) black, yielded faces orange.  Every picture has an
+axes triad (lower left) and a length scale bar under the cells (of the
+undeformed lengths; a round 1, 2 or 5 × 10^n m).  The view looks along the thinnest side of the domain (y
 on a tie), z up.  A modal history's picture names the mode and its
 frequency, a static one's the load factor.
 
@@ -634,7 +634,6 @@ def _modal_frequencies(path, obs):
     """(mode numbers, frequencies [Hz]) of a modal history: /modes/frequency
     when written (at the end of the run), else the frequency observable of
     frames 1..M."""
-    import h5py
     from .history import _open_h5
     f = _open_h5(str(path))
     with f:
@@ -753,8 +752,10 @@ def main(args) -> int:
                 else f"t = {res['time']:.4g}")
         print(f"rbsm_dyn: frame {res['frame']} ({what}): displacement "
               f"magnified x {_fmt_scale(res['scale'])} (largest {res['max_displacement']:.3g} m), "
-              f"{res['n_broken_faces']} broken ({res['n_notch_faces']} of them pre-cut) and "
-              f"{res['n_yielded_faces']} yielded faces; scale bar {res['scale_bar'][1]} "
+              f"{res['n_broken_faces']} broken"
+              + (f" ({res['n_notch_faces']} of them from the start)" if res['n_notch_faces']
+                 else "")
+              + f" and {res['n_yielded_faces']} yielded faces; scale bar {res['scale_bar'][1]} "
               f"-> {res['out']}")
     return 0
 
