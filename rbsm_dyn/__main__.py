@@ -25,14 +25,24 @@ INFO_OMEGA_MAX_BODIES = 5000   # `info` computes the exact ω_max up to this man
 
 
 def _parser():
-    p = argparse.ArgumentParser(prog="python -m rbsm_dyn",
-                                description="Rigid-body-spring model (Kawai RBSM), explicit dynamics.")
+    p = argparse.ArgumentParser(
+        prog="python -m rbsm_dyn",
+        description="Rigid-body-spring model (Kawai RBSM), explicit dynamics.",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="progress (stderr): a bar on a terminal; without one (batch jobs, a pipe) a\n"
+               "line every 30 s and 10 % of the run, whichever comes later; --quiet: none.\n"
+               "The environment variable RBSM_PROGRESS overrides it: bar (or 1) a bar even\n"
+               "without a terminal, log lines even on one, 0 or off no progress.  A cold\n"
+               "start says \"compiling kernels (first run only, about N s)\" first.\n"
+               "At the end a run prints the probes' last values (static runs: the reaction\n"
+               "and the residual too); the history is in SI units whatever the case's units.")
     p.add_argument("command_or_case", help="run | check | info, or the case file to run "
                    "(export | render | plot RUN.h5: see python -m rbsm_dyn export --help; "
                    "bench: time the explicit loop, python -m rbsm_dyn bench --help)")
     p.add_argument("case", nargs="?", help="case file (after a command)")
     p.add_argument("--out", help="output HDF5 file (overrides output.file)")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--quiet", action="store_true",
+                   help="no progress, no compile notice, no summary (RBSM_PROGRESS: below)")
     p.add_argument("--max-steps", type=int, default=None,
                    help="stop after this many steps (iterations in static mode)")
     p.add_argument("--threads", type=int, default=None,
@@ -48,27 +58,295 @@ def _parser():
 
 
 class Progress:
-    """tqdm bar over steps with time and kinetic energy (or residual)."""
+    """Progress of a run on stderr: a tqdm bar on a terminal, a log line at a
+    sane rate in batch (no terminal: every LOG_SECONDS and LOG_FRACTION of
+    the run, whichever comes later), nothing with --quiet.  RBSM_PROGRESS
+    overrides the choice: ``bar`` (or ``1``) a bar even without a terminal,
+    ``log`` lines even on one, ``0`` or ``off`` nothing.
 
-    def __init__(self, enabled):
-        self.enabled = enabled
+    The ETA counts from the end of the first chunk of steps (which holds
+    the compilation of a cold start), not from the start.  A static run by
+    relaxation counts whole load steps done; by Newton, whole per cent of
+    the load path with the increments done.  ``start(total, dt)`` and
+    ``update(n, t, value, label)`` are called by the solvers."""
+
+    LOG_SECONDS = 30.0
+    LOG_FRACTION = 0.1
+
+    def __init__(self, enabled, style=None, kind="steps", clock=time.perf_counter):
+        """enabled: progress wanted at all (not --quiet); style: "bar", "log"
+        or None (from RBSM_PROGRESS and whether stderr is a terminal); kind:
+        "steps" (dynamic), "load steps" (static relaxation), "newton"."""
+        self.style = progress_style(style) if enabled else None
+        self.kind = kind
+        self.clock = clock
         self.bar = None
+        self.total = 0
+        self.first = None          # (wall time, n) at the end of the first chunk
+        self.updates = 0
+        self.last_log = None       # (wall time, n) of the last log line
+        self.t_start = None
+
+    @property
+    def enabled(self):
+        return self.style is not None
 
     def start(self, total, dt):
-        if self.enabled:
+        self.total = total
+        self.t_start = self.clock()
+        self.first = None
+        self.updates = 0
+        self.last_log = (self.t_start, 0)
+        if self.style == "bar":
             from tqdm import tqdm
-            self.bar = tqdm(total=total, unit="step", dynamic_ncols=True, file=sys.stderr,
-                            mininterval=0.5)
+            unit = {"steps": "step", "load steps": "load step", "newton": "%"}[self.kind]
+            self.bar = tqdm(total=total, unit=unit, dynamic_ncols=True, file=sys.stderr,
+                            mininterval=0.5,
+                            bar_format="{l_bar}{bar}| {n_fmt}/{total_fmt} [{elapsed}{postfix}]")
+
+    def _whole(self, n):
+        """What the bar counts: whole steps, load steps or per cent."""
+        import math
+        return int(math.floor(n + 1e-9))
+
+    def eta(self, n, now=None):
+        """Seconds left, from the rate since the end of the first chunk
+        (None until a second chunk has ended)."""
+        now = self.clock() if now is None else now
+        if self.first is None or n <= self.first[1] or now <= self.first[0]:
+            return None
+        rate = (n - self.first[1]) / (now - self.first[0])
+        return max(0.0, (self.total - n) / rate)
+
+    #: called once, at the first update (the end of the first chunk)
+    on_first = None
 
     def update(self, n, t, value, label="Ek"):
+        if self.on_first is not None:
+            hook, self.on_first = self.on_first, None
+            hook()
+        if self.style is None:
+            return
+        now = self.clock()
+        self.updates += 1
+        whole = self._whole(n)
+        if self.first is None:
+            self.first = (now, n)
+        eta = self.eta(n, now)
+        what = (f"increment {self.updates}" if self.kind == "newton" else
+                f"λ={t:.4g}" if self.kind == "load steps" else f"t={t:.4g}")
+        text = f"{what} {label}={value:.3g}"
         if self.bar is not None:
-            self.bar.n = n
-            self.bar.set_postfix_str(f"t={t:.4g} {label}={value:.3g}", refresh=False)
+            self.bar.n = whole
+            self.bar.set_postfix_str(f"ETA {_duration(eta)}, {text}", refresh=False)
             self.bar.refresh()
+            return
+        t0, n0 = self.last_log
+        if (now - t0 >= self.LOG_SECONDS
+                and (n - n0) >= self.LOG_FRACTION * max(self.total, 1e-300)):
+            self.last_log = (now, n)
+            pct = 100.0 * n / max(self.total, 1e-300)
+            count = ("" if self.kind == "newton" else
+                     f" ({self.kind[:-1] if self.kind.endswith('s') else self.kind} "
+                     f"{whole}/{self.total})")
+            print(f"rbsm_dyn: progress {pct:.0f} %{count}, {text}, "
+                  f"{_duration(now - self.t_start)} elapsed, ETA {_duration(eta)}",
+                  file=sys.stderr, flush=True)
 
     def close(self):
+        self.on_first = None
         if self.bar is not None:
             self.bar.close()
+            self.bar = None
+
+
+def progress_style(style=None):
+    """"bar", "log" or None: ``style`` if given, else RBSM_PROGRESS (bar or
+    1, log, 0 or off), else a bar on a terminal and log lines without."""
+    if style is None:
+        env = os.environ.get("RBSM_PROGRESS", "").strip().lower()
+        if env in ("0", "off", "no", "none", "false"):
+            return None
+        if env == "log":
+            return "log"
+        if env:
+            return "bar"
+        return "bar" if sys.stderr.isatty() else "log"
+    return style
+
+
+def _duration(seconds):
+    """12 s, 3 min 5 s, 2 h 10 min; ? when unknown."""
+    if seconds is None:
+        return "?"
+    s = int(round(seconds))
+    if s < 60:
+        return f"{s} s"
+    if s < 3600:
+        return f"{s // 60} min {s % 60} s"
+    return f"{s // 3600} h {s % 3600 // 60} min"
+
+
+#: the compiled kernels a run of each kind calls first (module under the
+#: package, function): the Numba cache is cold for the run when one of them
+#: has neither a version compiled in this process nor a valid cache index
+RUN_KERNELS = {
+    "build": (("model", "_arms"), ("model", "_scaled_row_sums"),
+              ("mesh.polyhedron", "_tet_moments")),
+    "dynamic": (("physics.integrate", "run_dynamic"), ("physics.integrate",
+                                                        "synchronized_momenta")),
+    "relaxation": (("physics.relax", "run_relax"),),
+    "newton": (("solvers.newton", "_local_tangents"), ("solvers.assembly", "_assemble")),
+    "linear": (("physics.springs", "elastic_spring_pass"),),
+    "modal": (("physics.springs", "elastic_spring_pass"),),
+}
+#: seconds the compilation of a cold start takes, until one has been timed on
+#: this machine (then read from compile_seconds.json in rbsm_dyn's cache
+#: folder): measured on a 4-core laptop, 2026 (issue 17: 35-50 s in all)
+COMPILE_SECONDS = {"build": 8.0, "dynamic": 40.0, "relaxation": 25.0, "newton": 30.0,
+                   "linear": 5.0, "modal": 5.0}
+
+
+def kernel_is_cold(dispatcher):
+    """True when calling this Numba dispatcher would compile it: no version
+    compiled in this process and no entry in its on-disk cache index that
+    is valid for the source as it is (numba.core.caching reads the index,
+    a small pickle, and drops it when the source file's stamp differs).
+    None when it cannot be told (not a caching dispatcher, Numba changed)."""
+    try:
+        if dispatcher.signatures:
+            return False
+        cache = dispatcher._cache
+        index = cache._cache_file._load_index()
+        return len(index) == 0
+    except Exception:
+        return None
+
+
+def _run_kind(case):
+    mode = case.solver.mode
+    return ("dynamic" if mode == "dynamic" else mode if mode in ("linear", "modal")
+            else "newton" if getattr(case.solver, "method", "") == "newton" else "relaxation")
+
+
+def cold_kernels(kinds):
+    """The kinds of RUN_KERNELS whose kernels are cold (a list; "?" in it
+    when some could not be told)."""
+    import importlib
+    out = []
+    for kind in kinds:
+        for mod, name in RUN_KERNELS[kind]:
+            try:
+                f = getattr(importlib.import_module(f".{mod}", __package__), name)
+            except (ImportError, AttributeError):
+                cold = None
+            else:
+                cold = kernel_is_cold(f)
+            if cold is None:
+                out.append("?")
+            elif cold:
+                out.append(kind)
+                break
+    return out
+
+
+def _compile_record_file():
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return os.path.join(base, "rbsm_dyn", "compile_seconds.json")
+
+
+def compile_seconds(kinds):
+    """Expected seconds to compile the kernels of these kinds on this
+    machine: the last cold start of the same kinds, timed; else the sum of
+    each kind's (timed alone, or COMPILE_SECONDS)."""
+    import json
+    try:
+        with open(_compile_record_file(), encoding="utf-8") as f:
+            seen = json.load(f)
+    except (OSError, ValueError):
+        seen = {}
+    if not isinstance(seen, dict):
+        seen = {}
+
+    def timed(key):
+        v = seen.get(key)
+        return float(v) if isinstance(v, (int, float)) and not isinstance(v, bool) \
+            and v > 0 else None
+
+    whole = timed("+".join(sorted(kinds)))
+    if whole is not None:
+        return whole
+    return sum(timed(k) or COMPILE_SECONDS[k] for k in kinds)
+
+
+def record_compile_seconds(kind, seconds):
+    """Keep how long a cold start's compilation took (for the next notice)."""
+    import json
+    path = _compile_record_file()
+    try:
+        try:
+            with open(path, encoding="utf-8") as f:
+                seen = json.load(f)
+            if not isinstance(seen, dict):
+                seen = {}
+        except (OSError, ValueError):
+            seen = {}
+        seen[kind] = round(float(seconds), 1)
+        os.makedirs(os.path.dirname(path), exist_ok=True)
+        tmp = f"{path}.tmp-{os.getpid()}"
+        with open(tmp, "w", encoding="utf-8") as f:
+            json.dump(seen, f)
+        os.replace(tmp, path)
+    except OSError:
+        pass
+
+
+class CompileNotice:
+    """Says "compiling kernels (first run only, about N s)" on stderr before
+    the first call of cold kernels (made when it is created, before the
+    build); when coldness cannot be told, says so only if the first chunk
+    of steps has not ended after FALLBACK_SECONDS.  ``done()`` (a run: at
+    the end of its first chunk; check, info: after the build) keeps the
+    time a cold start took, for the next notice."""
+
+    FALLBACK_SECONDS = 2.0
+
+    def __init__(self, kinds, enabled=True):
+        self.enabled = enabled
+        cold = cold_kernels(kinds) if enabled else []
+        self.cold = [k for k in cold if k != "?"]
+        self.unknown = "?" in cold
+        self.timer = None
+        self.t0 = time.perf_counter()
+        if self.cold:
+            n = compile_seconds(self.cold)
+            print(f"rbsm_dyn: compiling kernels (first run only, about {n:.0f} s)",
+                  file=sys.stderr, flush=True)
+
+    def arm(self):
+        """The fallback: a message if the first chunk is slow (a timer thread)."""
+        if self.enabled and self.unknown and not self.cold:
+            import threading
+
+            def say():
+                print("rbsm_dyn: compiling kernels, it seems (first run only: a minute or "
+                      "so)", file=sys.stderr, flush=True)
+            self.timer = threading.Timer(self.FALLBACK_SECONDS, say)
+            self.timer.daemon = True
+            self.timer.start()
+
+    def cancel(self):
+        """No fallback message any more."""
+        if self.timer is not None:
+            self.timer.cancel()
+            self.timer = None
+
+    def done(self):
+        """The cold kernels have been compiled: keep the time it took (once)."""
+        self.cancel()
+        if self.cold:
+            record_compile_seconds("+".join(sorted(self.cold)), time.perf_counter() - self.t0)
+            self.cold = []
 
 
 POST_COMMANDS = {"export": "export", "render": "render", "plot": "render"}
@@ -233,6 +511,7 @@ def _build_and_go(command, path, case, args, lock):
         threads = _set_threads(args.threads, "--threads")
     else:
         threads = _set_threads(getattr(case.solver, "threads", None), "solver.threads")
+    notice = _compile_notice(command, case, args)
     try:
         model = _model(command, case, args)
     except CaseError as exc:
@@ -255,6 +534,8 @@ def _build_and_go(command, path, case, args, lock):
     from .solvers.output import probe_warnings
     for note in probe_warnings(case, model):
         print(f"rbsm_dyn: warning: {note}", file=sys.stderr)
+    if command != "run":
+        notice.done()
     if command == "check":
         print(f"{path}: ok ({model.n_bodies} bodies, {model.n_springs} spring points)")
         if case.solver.mode == "static":
@@ -266,7 +547,21 @@ def _build_and_go(command, path, case, args, lock):
     if command == "info":
         return _info(case, model, threads, out=args.restart or args.out)
     _stop_if_interrupted()
-    return _run(case, model, args, threads, lock)
+    return _run(case, model, args, threads, lock, notice)
+
+
+def _compile_notice(command, case, args):
+    """The compile notice of this command (CompileNotice): the build's
+    kernels unless the model will be read from .rbsm_cache/, and a run's."""
+    from .io import model_cache
+    kinds = []
+    cached = (model_cache.enabled() and not getattr(args, "no_model_cache", False)
+              and os.path.exists(model_cache.cache_file(case)))
+    if not cached:
+        kinds.append("build")
+    if command == "run":
+        kinds.append(_run_kind(case))
+    return CompileNotice(kinds, enabled=not getattr(args, "quiet", False))
 
 
 def _model(command, case, args):
@@ -495,8 +790,9 @@ def _extra_observables(case):
     return extra
 
 
-def _run(case, model, args, threads, lock):
-    """Run the case; ``lock``: the held io/lock.HistoryLock of the output."""
+def _run(case, model, args, threads, lock, notice=None):
+    """Run the case; ``lock``: the held io/lock.HistoryLock of the output;
+    ``notice``: the CompileNotice said before the build."""
     from .case import CaseError
     from .solvers import checkpoint, explicit
     from .solvers.output import Recorder
@@ -522,7 +818,13 @@ def _run(case, model, args, threads, lock):
             print(f"rbsm_dyn: {out}: cannot write the history file ({exc})", file=sys.stderr)
             return 2
     last = _watch_frames(rec)
-    progress = Progress(not args.quiet and sys.stderr.isatty() or (not args.quiet and os.environ.get("RBSM_PROGRESS")))
+    kind = ("steps" if case.solver.mode == "dynamic" else
+            "newton" if getattr(case.solver, "method", "") == "newton" else "load steps")
+    progress = Progress(not args.quiet, kind=kind)
+    if notice is None:
+        notice = CompileNotice([_run_kind(case)], enabled=not args.quiet)
+    progress.on_first = notice.done
+    notice.arm()
     t0 = time.perf_counter()
     try:
         if case.solver.mode == "dynamic":
@@ -576,7 +878,10 @@ def _run(case, model, args, threads, lock):
         rec.close()
         print(f"rbsm_dyn: interrupted; history kept in {out}", file=sys.stderr)
         return 130
+    finally:
+        notice.cancel()
     progress.close()
+    notice.done()                # (linear, modal: no progress; timed here)
     rec.close()
     for note in res.get("warnings", ()):
         print(f"rbsm_dyn: warning: {note}", file=sys.stderr)
