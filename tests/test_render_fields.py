@@ -285,3 +285,18 @@ def test_help_descriptions_are_whole_sentences(command, text, capsys):
     assert exc.value.code == 0
     out = " ".join(capsys.readouterr().out.split())
     assert " ".join(text.split()) in out and text.rstrip().endswith(".")
+
+
+def test_on_a_tie_the_view_looks_across_the_displacements():
+    """A square cantilever (1 × 0.1 × 0.1) bending sideways (y) is seen from
+    above (along z), not end-on; bending in z, from the side (along y)."""
+    lo, hi = [0, 0, 0], [1.0, 0.1, 0.1]
+    sideways = np.array([[0, 1e-3, 0], [0, 2e-3, 0]])
+    direction, up = render_mod._view(lo, hi, sideways)
+    assert abs(direction[2]) == 1 and up[1] == 1
+    direction, up = render_mod._view(lo, hi, sideways[:, [0, 2, 1]])
+    assert abs(direction[1]) == 1 and up[2] == 1
+    direction, _ = render_mod._view(lo, hi)                  # no displacements: y first
+    assert abs(direction[1]) == 1
+    direction, _ = render_mod._view(lo, [1.0, 0.1, 0.2], sideways)   # no tie: thinnest
+    assert abs(direction[1]) == 1

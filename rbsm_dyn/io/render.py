@@ -23,8 +23,9 @@ from the start (a ``cuts`` notch, contact interfaces between parts: spring
 state >= 2 in frame 0) black, yielded faces orange.  Every picture has an
 axes triad (lower left) and a length scale bar under the cells (of the
 undeformed lengths; a round 1, 2 or 5 × 10^n m).  The view looks along the thinnest side of the domain (y
-on a tie), z up.  A modal history's picture names the mode and its
-frequency, a static one's the load factor.
+on a tie: the side along which the cells moved least, so that a mode
+bending sideways is seen across), z up.  A modal history's picture names
+the mode and its frequency, a static one's the load factor.
 
 ``plot`` draws the energies (kinetic, strain, dissipated, external work and
 the balance error, solvers/output.py) and each probe over time (load
@@ -169,12 +170,20 @@ def _fmt_scale(s: float) -> str:
     return f"{s:g}"
 
 
-def _view(box_min, box_max):
+def _view(box_min, box_max, displacement=None):
     """Camera direction (from the focal point to the camera) and up vector:
-    along the thinnest side (y first on a tie), z up."""
+    along the thinnest side, z up.  On a tie, the side along which the
+    displacements (N, 3), when given, are smallest (so that a cantilever's
+    mode bending sideways is seen from above, not end-on), else y first."""
     ext = np.asarray(box_max) - np.asarray(box_min)
     order = [1, 0, 2]                       # prefer y, then x, then z
-    axis = min(order, key=lambda a: (ext[a], order.index(a)))
+    thin = float(ext.min())
+    tied = [a for a in order if ext[a] <= thin * (1 + 1e-9)]
+    if displacement is not None and len(tied) > 1 and len(displacement):
+        along = np.sqrt(np.mean(np.asarray(displacement, float) ** 2, axis=0))
+        if along[tied].max() > 0:
+            tied = sorted(tied, key=lambda a: (along[a] > 1e-3 * along.max(), along[a]))
+    axis = tied[0] if tied else min(order, key=lambda a: (ext[a], order.index(a)))
     direction = np.zeros(3)
     direction[axis] = -1.0 if axis == 1 else 1.0    # look from -y (x right, z up)
     up = np.array([0.0, 0.0, 1.0]) if axis != 2 else np.array([0.0, 1.0, 0.0])
@@ -369,7 +378,7 @@ def build_plotter(path, *, frame: int = -1, scale: float | None = None,
             f"displacement magnified x {_fmt_scale(scale)} (largest: {max_u:.3g} m)"
             + (f"; colour: {label}" if color != "displacement" else "") + "\n" + legend)
     pl.add_text(text, position="upper_left", font_size=11, color="black")
-    direction, up = _view(box_min, box_max)
+    direction, up = _view(box_min, box_max, true_cells.point_data["displacement"])
     centre = 0.5 * (box_min + box_max)
     pl.camera.focal_point = centre
     pl.camera.position = centre + direction * size * 3
