@@ -255,11 +255,19 @@ def field_comments(model: type) -> dict[str, str]:
     return out
 
 
+#: references to design notes that are not in the repository, dropped
+#: from the docstrings: "(DESIGN.md §6)", "DESIGN.md §8, "
+MISSING_REFS = re.compile(r"\s*\((?:DESIGN|VERIFICATION)\.md[^),]*\)|(?:DESIGN|VERIFICATION)\.md[^),]*, ")
+
+
 def docstring(model: type) -> str:
+    """The model's own docstring (not its base's), on one line, with the
+    corrections of DOC_FIXES and without MISSING_REFS."""
     doc = inspect.cleandoc(model.__dict__.get("__doc__") or "")
     for name, stale, new in DOC_FIXES:
         if model.__name__ == name and stale in doc:
             doc = doc.replace(stale, new)
+    doc = MISSING_REFS.sub("", doc)
     return " ".join(doc.split())
 
 
@@ -274,10 +282,16 @@ def _default_text(f: FieldInfo) -> str:
         return "`{}`" if not given else f"`{given}`"
     if isinstance(value, bool):
         return "`true`" if value else "`false`"
-    if isinstance(value, (list, dict)):
-        return "`" + schema._show(value).replace("a list", str(value).replace("'", "")) \
-            .replace("a mapping", "{}" if not value else str(value)) + "`"
-    return f"`{schema._show(value).strip(chr(39))}`"
+    return f"`{_yaml(value)}`"
+
+
+def _yaml(value: Any) -> str:
+    """A default as it would be written in the case file (flow style)."""
+    if isinstance(value, list):
+        return "[" + ", ".join(_yaml(v) for v in value) + "]"
+    if isinstance(value, dict):
+        return "{" + ", ".join(f"{k}: {_yaml(v)}" for k, v in value.items()) + "}"
+    return schema._show(value).strip("'")
 
 
 def _unit_text(model: type, name: str) -> str:
