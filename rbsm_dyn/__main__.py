@@ -16,6 +16,7 @@ writes to .RUN.h5.tmp-<pid> until its first frame, then renames it to
 RUN.h5: a run refused before that leaves an existing RUN.h5 untouched.
 """
 import argparse
+import math
 import os
 import sys
 import time
@@ -479,6 +480,8 @@ def _main(argv=None):
     except OSError as exc:
         print(f"rbsm_dyn: {path}: cannot read the case file ({exc.strerror})", file=sys.stderr)
         return 2
+    for note in getattr(case, "warnings", ()):
+        print(f"rbsm_dyn: warning: {note}", file=sys.stderr)
     lock = None
     if command == "run":
         # where the run writes may be refused before the (long) build
@@ -527,7 +530,7 @@ def _build_and_go(command, path, case, args, lock):
     for note in model.warnings:
         print(f"rbsm_dyn: warning: {note}", file=sys.stderr)
     try:
-        _preflight(case, model)
+        step = _preflight(case, model)
     except CaseError as exc:
         print(f"rbsm_dyn: {exc}", file=sys.stderr)
         return 2
@@ -541,6 +544,13 @@ def _build_and_go(command, path, case, args, lock):
         if case.solver.mode == "static":
             how = "the default for this case" if case.solver._method_default else "given"
             print(f"  solver: static by {case.solver.method} ({how}; docs/case_file.md)")
+        if step is not None:
+            dt, est = step
+            how = ("solver.dt" if case.solver.dt is not None
+                   else f"× dt_safety {case.solver.dt_safety:g}")
+            steps = int(math.ceil(case.solver.end_time / dt - 1e-9))
+            print(f"  stable step {est:.4g} s (estimate); dt {dt:.4g} s ({how}), {steps} steps "
+                  f"to end_time {case.solver.end_time:g} s")
         for line in _selections(case, model):
             print(f"  {line}")
         return 0
@@ -604,12 +614,14 @@ def _preflight(case, model):
     (CaseError): a model that cannot be run (no springs, a body without
     mass), a fixed solver.dt above the stable estimate, more modes than the
     model has free DOFs, a probe point in no cell.  Made before any file is
-    touched (and by check and info)."""
+    touched (and by check and info).  Returns (dt, stable step estimate)
+    of a dynamic case, else None."""
     from .solvers import explicit
     explicit.check_model(case, model)
     mode = case.solver.mode
+    step = None
     if mode == "dynamic":
-        explicit.choose_dt(case, model)
+        step = explicit.choose_dt(case, model)
     elif mode == "modal":
         from .physics.integrate import FREE
         nf = int((model.dof_kind.reshape(-1) == FREE).sum())
@@ -621,6 +633,7 @@ def _preflight(case, model):
     for plan in probe_plan(model, dict(case.output.probes or {}), case).values():
         if plan[0] == "error":
             raise plan[1]
+    return step
 
 
 #: builds of more cells than this announce themselves on stderr

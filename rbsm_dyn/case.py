@@ -593,6 +593,13 @@ class Case(_Node):
     _source_file: str = PrivateAttr(default="<string>")
     _lines: dict = PrivateAttr(default_factory=dict)
     _input_units: str = PrivateAttr(default="SI")
+    _warnings: list = PrivateAttr(default_factory=list)
+
+    @property
+    def warnings(self) -> list:
+        """Messages for the user about a case that loads but looks wrong
+        (file:line: key: ..., as an error's; printed as warnings)."""
+        return self._warnings
 
     @property
     def source_text(self) -> str:
@@ -1396,6 +1403,8 @@ def _check(case: Case) -> None:
                 raise err(path + (key,), "all components are null (nothing prescribed)")
             check_history(b.history, path + ("history",))
 
+    _check_contradictions(case, err)
+
     for i, item in enumerate(case.initial):
         path = ("initial", i)
         if not (item.given("velocity") or item.given("angular_velocity")):
@@ -1527,6 +1536,41 @@ def _check(case: Case) -> None:
                           "(the relative displacement would be 0)")
 
 
+def _check_contradictions(case: Case, err) -> None:
+    """The same group (or surface) given a component twice over in
+    ``boundary``: fixed by one item and prescribed (velocity, displacement)
+    by another, or prescribed by two: an error naming both items (which
+    one holds would depend on their order).  Fixed twice is harmless; the
+    items of different groups that share bodies are left to the model (a
+    warning there).  Fixing some components and prescribing others stays
+    allowed (fix: [x] and velocity [null, null, v] on one group)."""
+    seen: dict = {}          # (selector, name) -> {component: (item index, what)}
+    for j, b in enumerate(case.boundary):
+        if isinstance(b, FaceSupport):
+            continue
+        sel = ("group", b.group) if b.group is not None else ("surface", b.surface)
+        if isinstance(b, GroupFix):
+            comps, what, key = list(b.fix), "fix", "fix"
+        else:
+            key = "velocity" if isinstance(b, GroupVelocity) else "displacement"
+            comps = [c for c, v in zip("xyz", getattr(b, key)) if v is not None]
+            what = key
+        mine = seen.setdefault(sel, {})
+        for c in comps:
+            if c in mine:
+                k, other = mine[c]
+                if not (what == "fix" and other == "fix"):
+                    desc = {"fix": "fixed", "velocity": "given a velocity",
+                            "displacement": "given a displacement"}
+                    raise err(("boundary", j, key),
+                              f"{c} of {sel[0]} {sel[1]} is {desc[what]} here and "
+                              f"{desc[other]} by boundary[{k}]: boundary[{k}] and "
+                              f"boundary[{j}] contradict each other (a component of a "
+                              "group is free, fixed or prescribed: by one item only)")
+            else:
+                mine[c] = (j, what)
+
+
 def _check_contact(case: Case, err) -> None:
     """contact: dynamic mode only; ``between`` names parts (a one-part
     scene takes ``all``); the ground's normal is not zero.  ``between`` is
@@ -1607,7 +1651,47 @@ def load_case_text(text: str | bytes, filename: str = "<string>") -> Case:
         case.output.file = f"{safe}.h5"
     if case.solver.mode == "dynamic" and case.output.interval is None:
         case.output.interval = case.solver.end_time / 100
+    case._warnings.extend(_unit_traps(case))
     return case
+
+
+#: the bar wave speed sqrt(E/ρ) of any real solid lies in this range [m/s]
+#: (rubber ~ 30, foams ~ 100, steel 5 100, diamond 17 500); outside it a
+#: value is in the wrong units (a warning)
+WAVE_SPEED_RANGE = (10.0, 20_000.0)
+
+
+def _unit_traps(case: Case) -> list[str]:
+    """Warnings for materials whose bar wave speed sqrt(E/ρ) (SI) lies
+    outside WAVE_SPEED_RANGE: the usual cause is a value in the other
+    system of units (a density of 7.85e-9 in SI is steel's in t/mm³)."""
+    lo, hi = WAVE_SPEED_RANGE
+    out = []
+    for name, mat in case.materials.items():
+        c = math.sqrt(mat.young / mat.density)
+        if lo <= c <= hi:
+            continue
+        given = case.input_units
+        f = UNIT_FACTORS[given]
+        rho, e = mat.density / f.get("density", 1.0), mat.young / f.get("stress", 1.0)
+        if given == "SI":
+            hint = ("in SI a density is in kg/m³ (steel 7850) and young in Pa (steel 2.1e11)"
+                    + (f"; density {_show(rho)} looks like a value in t/mm³ (units: mm-N-s)"
+                       if rho < 1.0 else "")
+                    + (f"; young {_show(e)} looks like a value in MPa (units: mm-N-s)"
+                       if e < 1e7 else ""))
+        else:
+            hint = ("in mm-N-s a density is in t/mm³ (steel 7.85e-9) and young in MPa "
+                    "(steel 2.1e5)"
+                    + (f"; density {_show(rho)} looks like a value in kg/m³ (SI)"
+                       if rho > 1e-3 else "")
+                    + (f"; young {_show(e)} looks like a value in Pa (SI)" if e > 1e8 else ""))
+        out.append(str(case.error(("materials", name),
+                                  f"bar wave speed sqrt(E/ρ) = {c:.3g} m/s lies outside "
+                                  f"{lo:g}-{hi:g} m/s: a mix-up of units? ({hint}; a filler "
+                                  "made soft or stiff on purpose, such as a notch's, is "
+                                  "fine)")))
+    return out
 
 
 def load_case(path: str | Path) -> Case:

@@ -212,3 +212,71 @@ def test_cold_start_notice_and_its_timing(tmp_path, capsys, monkeypatch):
     assert set(seen) == {"dynamic"} and 0 <= seen["dynamic"] < 60
     assert main([str(path), "--out", str(tmp_path / "run.h5"), "--quiet"]) == 0
     assert "compiling" not in capsys.readouterr().err
+
+
+# ------------------------------- item 7: contradictions and unit traps ---
+
+TWO_ITEMS = TINY.replace("boundary: [{face: xmin, fix: all}]",
+                         "boundary:\n  - {face: xmin, fix: all}\n  - {group: tip, fix: [z]}\n"
+                         "  - {group: tip, %s}")
+
+
+@pytest.mark.parametrize("item", ["displacement: [null, null, -1.0e-4]",
+                                  "velocity: [0, null, -1.0]"])
+def test_fix_and_prescribed_z_on_one_group_is_an_error(tmp_path, capsys, item):
+    text = TWO_ITEMS % item
+    if "displacement" in item:
+        text = text.replace("initial: [{group: tip, velocity: [0, 0, -1.0]}]\n", "")
+    path = _write(tmp_path, text)
+    assert main(["check", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert "boundary[1]" in err and "boundary[2]" in err and " z " in err, err
+    assert re.search(r"case\.yaml:\d+: boundary\[2\]\.", err), err
+    assert len(err.strip().splitlines()) == 1
+
+
+def test_fix_x_and_velocity_z_on_one_group_stays_allowed(tmp_path, capsys):
+    text = (TWO_ITEMS % "velocity: [null, null, -1.0]").replace("fix: [z]", "fix: [x, ry]")
+    path = _write(tmp_path, text)
+    assert main(["check", str(path)]) == 0, capsys.readouterr().err
+    # two fixes of one component: harmless
+    text = (TWO_ITEMS % "fix: [z, x]")
+    assert main(["check", str(_write(tmp_path, text, "b.yaml"))]) == 0
+
+
+@pytest.mark.parametrize("old, new, hint", [
+    ("density: 8000", "density: 7.85e-9", "t/mm³"),          # mm-N-s density in SI
+    ("young: 200.0e9", "young: 200.0e3", "MPa"),              # MPa in SI
+])
+def test_wave_speed_outside_range_warns(tmp_path, capsys, old, new, hint):
+    path = _write(tmp_path, TINY.replace(old, new))
+    assert main(["check", str(path)]) == 0
+    captured = capsys.readouterr()
+    warn = [x for x in captured.err.splitlines() if "warning" in x]
+    assert len(warn) == 1, captured.err
+    assert "materials.steel" in warn[0] and "wave speed" in warn[0] and hint in warn[0]
+    path = _write(tmp_path, TINY, "fine.yaml")
+    assert main(["check", str(path)]) == 0
+    assert "wave speed" not in capsys.readouterr().err
+
+
+def test_mm_case_given_si_density_warns(tmp_path, capsys):
+    path = _write(tmp_path, TINY_MM.replace("density: 8.0e-9", "density: 8000"))
+    from rbsm_dyn.case import load_case
+    case = load_case(path)
+    assert len(case.warnings) == 1 and "kg/m³" in case.warnings[0]
+    assert load_case(_write(tmp_path, TINY_MM, "ok.yaml")).warnings == []
+
+
+def test_check_reports_the_stable_step(tmp_path, capsys):
+    path = _write(tmp_path, TINY)
+    assert main(["check", str(path)]) == 0
+    out = capsys.readouterr().out
+    m = re.search(r"stable step (\S+) s \(estimate\); dt (\S+) s \(× dt_safety 0.8\), (\d+) "
+                  r"steps", out)
+    assert m, out
+    from rbsm_dyn.case import load_case
+    from rbsm_dyn.model import build_model
+    est = build_model(load_case(path)).stable_dt()
+    assert float(m.group(1)) == pytest.approx(est, rel=1e-3)
+    assert float(m.group(2)) == pytest.approx(0.8 * est, rel=1e-3)
