@@ -17,7 +17,8 @@ a header's figures no test computes.
 """
 from __future__ import annotations
 
-import importlib
+import importlib.util
+import sys
 from pathlib import Path
 from typing import NamedTuple
 
@@ -126,8 +127,16 @@ TABLE: dict[str, Check] = {
 
 
 def _function(ref: str):
+    """(module, function or None) of "tests/<module>.py::<function>": the
+    module imported from its file (tests/ is not a package; pytest puts it
+    on sys.path, so the test modules' own imports of their siblings work)."""
     path, _, name = ref.partition("::")
-    module = importlib.import_module(Path(path).with_suffix("").as_posix().replace("/", "."))
+    file = ROOT / path
+    module = sys.modules.get(file.stem)
+    if module is None or Path(getattr(module, "__file__", "")).resolve() != file.resolve():
+        spec = importlib.util.spec_from_file_location(f"_cases_table_{file.stem}", file)
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
     return module, getattr(module, name, None)
 
 
