@@ -38,7 +38,7 @@ from ruamel.yaml.nodes import MappingNode, ScalarNode, SequenceNode
 __all__ = [
     "CaseError", "load_case", "load_case_text", "Case", "Domain", "Mesh",
     "Material", "Yield", "Rupture", "Group", "FaceSupport", "GroupFix",
-    "GroupVelocity", "GroupDisplacement", "InitialVelocity", "GroupLoad",
+    "GroupVelocity", "GroupDisplacement", "InitialVelocity", "RigidMotion", "GroupLoad",
     "SurfaceLoad", "Gravity", "Cut", "Contact", "Ground", "Damping", "Solver", "Probe", "RelativeProbe", "Output",
     "DIMENSIONS",
     "MAX_CELLS", "NUMBER_LIMIT",
@@ -319,11 +319,24 @@ class GroupDisplacement(_Node):
     history: Optional[History] = None
 
 
+class RigidMotion(_Node):
+    """``rigid: {angular_velocity: [wx, wy, wz], center: [x, y, z]}`` of an
+    initial item: the group turns as one rigid body about ``center``
+    (default: the group's centre of mass)."""
+    angular_velocity: Vec3
+    center: Optional[Vec3] = None
+
+
 class InitialVelocity(_Node):
-    """``{group: g, velocity, angular_velocity}`` at t = 0."""
+    """``{group: g, velocity, angular_velocity}`` at t = 0: each cell of the
+    group translates at ``velocity`` and spins at ``angular_velocity`` about
+    its own centroid.  ``{group: g, velocity, rigid: {angular_velocity,
+    center}}``: the group moves as one rigid body, each cell at v + ω × (x_c
+    − center) and spinning at ω (model.apply_initial)."""
     group: str = "all"
     velocity: Vec3 = [0.0, 0.0, 0.0]
     angular_velocity: Vec3 = [0.0, 0.0, 0.0]
+    rigid: Optional[RigidMotion] = None
 
 
 class GroupLoad(_Node):
@@ -655,6 +668,8 @@ DIMENSIONS: dict[tuple[type, str], str] = {
     (GroupDisplacement, "history"): "history",
     (InitialVelocity, "velocity"): "velocity",
     (InitialVelocity, "angular_velocity"): "1/time",
+    (RigidMotion, "angular_velocity"): "1/time",
+    (RigidMotion, "center"): "length",
     (GroupLoad, "force"): "force",
     (GroupLoad, "moment"): "moment",
     (GroupLoad, "history"): "history",
@@ -1407,8 +1422,12 @@ def _check(case: Case) -> None:
 
     for i, item in enumerate(case.initial):
         path = ("initial", i)
-        if not (item.given("velocity") or item.given("angular_velocity")):
-            raise err(path, "required key missing: velocity or angular_velocity")
+        if not (item.given("velocity") or item.given("angular_velocity") or item.rigid):
+            raise err(path, "required key missing: velocity, angular_velocity or rigid")
+        if item.rigid is not None and item.given("angular_velocity"):
+            raise err(path + ("angular_velocity",), "give the angular velocity in rigid (the "
+                      "group turns as one body) or here (each cell spins about its own "
+                      "centroid), not both")
         check_group(item.group, path + ("group",))
 
     if case.contact is not None:

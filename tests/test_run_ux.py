@@ -280,3 +280,143 @@ def test_check_reports_the_stable_step(tmp_path, capsys):
     est = build_model(load_case(path)).stable_dt()
     assert float(m.group(1)) == pytest.approx(est, rel=1e-3)
     assert float(m.group(2)) == pytest.approx(0.8 * est, rel=1e-3)
+
+
+# ------------------------------------------------ item 9: rigid initial motion ---
+
+SPIN = textwrap.dedent("""\
+    name: spin
+    domain: {box: [[0, 0, 0], [0.1, 0.08, 0.06]]}
+    mesh: {kind: voronoi, size: 0.025, seed: 3}
+    materials:
+      steel: {density: 7850, young: 200.0e9, poisson: 0.2}
+    initial: [{group: all, velocity: [1.0, -2.0, 0.5], rigid: {angular_velocity: [30.0, -50.0, 80.0]}}]
+    solver: {mode: dynamic, end_time: 1.0e-5}
+    output:
+      interval: 1.0e-6
+      fields: [position, orientation, velocity, angular_velocity]
+    """)
+
+
+def _spun(text):
+    from rbsm_dyn.case import load_case_text
+    from rbsm_dyn.model import apply_initial, build_model, new_state
+    case = load_case_text(text)
+    model = build_model(case)
+    state = new_state(model)
+    apply_initial(case, model, state)
+    return case, model, state
+
+
+def _momenta(mass, inertia, R, x, v, w):
+    """(P, L about the centre of mass, kinetic energy, I_total about it)."""
+    m = mass
+    com = (m[:, None] * x).sum(0) / m.sum()
+    r = x - com
+    Ic = np.einsum("nij,nj,nkj->nik", R, inertia, R)            # R diag(I) Rᵀ
+    L = (m[:, None] * np.cross(r, v)).sum(0) + np.einsum("nij,nj->i", Ic, w)
+    ek = 0.5 * (m * (v * v).sum(1)).sum() + 0.5 * np.einsum("ni,nij,nj->", w, Ic, w)
+    I_tot = Ic.sum(0) + np.einsum("n,nij->ij", m, (r * r).sum(1)[:, None, None] * np.eye(3)
+                                  - r[:, :, None] * r[:, None, :])
+    return (m[:, None] * v).sum(0), L, ek, I_tot, com
+
+
+def test_rigid_spin_gives_the_assembled_angular_momentum_and_energy():
+    case, model, state = _spun(SPIN)
+    n = model.n_bodies
+    R = state.body_rot[:n]
+    wb = np.einsum("nki,nk->ni", R, state.body_angmom[:n]) / model.body_inertia
+    w_cells = np.einsum("nij,nj->ni", R, wb)
+    w = np.array([30.0, -50.0, 80.0])
+    assert np.allclose(w_cells, w, rtol=0, atol=1e-12 * np.linalg.norm(w))
+    P, L, ek, I_tot, com = _momenta(model.body_mass, model.body_inertia, R,
+                                    state.body_pos[:n], state.body_vel[:n], w_cells)
+    M = model.body_mass.sum()
+    v0 = np.array([1.0, -2.0, 0.5])
+    assert np.allclose(P, M * v0, rtol=1e-12)
+    Iw = I_tot @ w
+    assert np.linalg.norm(L - Iw) <= 1e-12 * np.linalg.norm(Iw)
+    assert ek == pytest.approx(0.5 * M * v0 @ v0 + 0.5 * w @ I_tot @ w, rel=1e-12)
+    # each cell: v + ω × (x_c − centre of mass)
+    assert np.allclose(state.body_vel[:n], v0 + np.cross(w, state.body_pos[:n] - com),
+                       rtol=0, atol=1e-13)
+
+
+def test_rigid_center_and_the_old_meaning_of_angular_velocity():
+    c = [0.0, 0.0, 0.0]
+    _, model, state = _spun(SPIN.replace("rigid: {angular_velocity: [30.0, -50.0, 80.0]}",
+                                         "rigid: {angular_velocity: [0, 0, 80.0], center: "
+                                         "[0, 0, 0]}"))
+    n = model.n_bodies
+    x = state.body_pos[:n]
+    assert np.allclose(state.body_vel[:n], np.array([1.0, -2.0, 0.5])
+                       + np.cross([0, 0, 80.0], x - c), atol=1e-13)
+    # without rigid: each cell spins about its own centroid, no translation from ω
+    _, model, state = _spun(SPIN.replace("rigid: {angular_velocity: [30.0, -50.0, 80.0]}",
+                                         "angular_velocity: [0, 0, 80.0]"))
+    assert np.allclose(state.body_vel[:n], [1.0, -2.0, 0.5], rtol=0, atol=0)
+
+
+def test_rigid_spin_in_mm_and_its_errors(tmp_path, capsys):
+    from rbsm_dyn.case import CaseError, load_case_text
+    case = load_case_text(TINY_MM.replace(
+        "initial: [{group: tip, velocity: [0, 0, -1000.0]}]",
+        "initial: [{group: tip, rigid: {angular_velocity: [0, 0, 5.0], center: [400, 0, 0]}}]"))
+    assert case.initial[0].rigid.center == pytest.approx([0.4, 0.0, 0.0])
+    assert case.initial[0].rigid.angular_velocity == [0, 0, 5.0]
+    with pytest.raises(CaseError, match=r"initial\[0\]\.angular_velocity: give the angular"):
+        load_case_text(TINY.replace("velocity: [0, 0, -1.0]}",
+                                    "angular_velocity: [0, 0, 1], rigid: {angular_velocity: "
+                                    "[0, 0, 1]}}"))
+    with pytest.raises(CaseError, match=r"initial\[0\]\.rigid\.omega: unknown key 'omega'"):
+        load_case_text(TINY.replace("velocity: [0, 0, -1.0]}", "rigid: {omega: [0, 0, 1]}}"))
+
+
+def test_free_block_given_a_rigid_spin_turns_as_a_rigid_body(tmp_path):
+    """A free Voronoi block: its angular momentum about the centre of mass
+    and its energy are kept, and over the first steps its cells move as
+    one rigid body (distances between cells kept to the strain level
+    ρ v²/E the spin causes; positions those of the rigid rotation)."""
+    from rbsm_dyn.physics.rotation import quat_matrix_np
+    path = _write(tmp_path, SPIN)
+    out = tmp_path / "spin.h5"
+    assert main([str(path), "--out", str(out), "--quiet"]) == 0
+    h = rbsm_dyn.open_history(out)
+    import h5py
+    with h5py.File(out, "r") as f:
+        mass, inertia = (np.asarray(f[f"particles/bodies/{k}"][()]) for k in ("mass", "inertia"))
+    t = np.asarray(h.time)
+    w = np.array([30.0, -50.0, 80.0])
+    v0 = np.array([1.0, -2.0, 0.5])
+    first = None
+    size = 0.1
+    vmax = np.linalg.norm(w) * size + np.linalg.norm(v0)
+    strain = 7850 * vmax ** 2 / 200e9                     # ρ v² / E
+    for k in range(len(t)):
+        x, v, om = (np.asarray(a[k]) for a in (h.position, h.velocity, h.angular_velocity))
+        R = quat_matrix_np(np.asarray(h.orientation[k]))
+        P, L, ek, I_tot, com = _momenta(mass, inertia, R, x, v, om)
+        if first is None:
+            first = (L, ek, com, x, I_tot)
+            assert np.linalg.norm(L - I_tot @ w) <= 1e-12 * np.linalg.norm(I_tot @ w)
+            assert ek == pytest.approx(0.5 * mass.sum() * v0 @ v0 + 0.5 * w @ I_tot @ w,
+                                       rel=1e-12)
+            continue
+        L0, ek0, com0, x0, _ = first
+        # angular momentum about the (moving) centre of mass: kept
+        assert np.linalg.norm(L - L0) <= 1e-12 * np.linalg.norm(L0), k
+        # energy: kinetic + strain kept (the spin strains the block a little)
+        e = ek + float(h.observables["strain"][k])
+        assert e == pytest.approx(ek0, rel=1e-7), k
+        # rigid motion: the rotation by ω t about the centre of mass
+        th = w * t[k]
+        a = np.linalg.norm(th)
+        K = np.array([[0, -th[2], th[1]], [th[2], 0, -th[0]], [-th[1], th[0], 0]]) / a
+        Rw = np.eye(3) + np.sin(a) * K + (1 - np.cos(a)) * K @ K
+        assert np.allclose(com, com0 + v0 * t[k], rtol=0, atol=1e-12)
+        rigid = com + (x0 - com0) @ Rw.T
+        assert np.abs(x - rigid).max() <= strain * size, (k, np.abs(x - rigid).max())
+        d0 = np.linalg.norm(x0[:, None] - x0[None], axis=2)
+        d = np.linalg.norm(x[:, None] - x[None], axis=2)
+        assert np.abs(d - d0).max() <= strain * size, k
+    assert len(t) >= 5
