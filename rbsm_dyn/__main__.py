@@ -480,8 +480,6 @@ def _main(argv=None):
     except OSError as exc:
         print(f"rbsm_dyn: {path}: cannot read the case file ({exc.strerror})", file=sys.stderr)
         return 2
-    for note in getattr(case, "warnings", ()):
-        print(f"rbsm_dyn: warning: {note}", file=sys.stderr)
     lock = None
     if command == "run":
         # where the run writes may be refused before the (long) build
@@ -534,11 +532,13 @@ def _build_and_go(command, path, case, args, lock):
     except CaseError as exc:
         print(f"rbsm_dyn: {exc}", file=sys.stderr)
         return 2
+    # (the case's own warnings, a unit trap: after the checks, so that a bad
+    # case still gets its one line)
+    for note in getattr(case, "warnings", ()):
+        print(f"rbsm_dyn: warning: {note}", file=sys.stderr)
     from .solvers.output import probe_warnings
     for note in probe_warnings(case, model):
         print(f"rbsm_dyn: warning: {note}", file=sys.stderr)
-    if command != "run":
-        notice.done()
     if command == "check":
         print(f"{path}: ok ({model.n_bodies} bodies, {model.n_springs} spring points)")
         if case.solver.mode == "static":
@@ -561,9 +561,13 @@ def _build_and_go(command, path, case, args, lock):
 
 
 def _compile_notice(command, case, args):
-    """The compile notice of this command (CompileNotice): the build's
-    kernels unless the model will be read from .rbsm_cache/, and a run's."""
+    """The compile notice of a run (CompileNotice): the build's kernels
+    unless the model will be read from .rbsm_cache/, and the solver's.
+    check and info say nothing (their build compiles for seconds, and a bad
+    case gets one line: the error)."""
     from .io import model_cache
+    if command != "run":
+        return CompileNotice([], enabled=False)
     kinds = []
     cached = (model_cache.enabled() and not getattr(args, "no_model_cache", False)
               and os.path.exists(model_cache.cache_file(case)))
