@@ -33,8 +33,8 @@ def _parser():
         epilog="progress (stderr): a bar on a terminal; without one (batch jobs, a pipe) a\n"
                "line every 30 s and 10 % of the run, whichever comes later; --quiet: none.\n"
                "The environment variable RBSM_PROGRESS overrides it: bar (or 1) a bar even\n"
-               "without a terminal, log lines even on one, 0 or off no progress.  A cold\n"
-               "start says \"compiling kernels (first run only, about N s)\" first.\n"
+               "without a terminal, log lines even on one, 0 or off no progress.  A run's\n"
+               "cold start says \"compiling kernels (first run only, about N s)\" first.\n"
                "At the end a run prints the probes' last values (static runs: the reaction\n"
                "and the residual too); the history is in SI units whatever the case's units.")
     p.add_argument("command_or_case", help="run | check | info, or the case file to run "
