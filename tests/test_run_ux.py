@@ -202,6 +202,7 @@ def test_cold_start_notice_and_its_timing(tmp_path, capsys, monkeypatch):
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
     monkeypatch.setattr(cli, "cold_kernels",
                         lambda kinds: [k for k in kinds if k == "dynamic"])
+    monkeypatch.setattr(cli.CompileNotice, "MIN_SECONDS", 0.0)
     path = _write(tmp_path, TINY)
     assert main([str(path), "--out", str(tmp_path / "run.h5")]) == 0
     err = capsys.readouterr().err
@@ -212,6 +213,41 @@ def test_cold_start_notice_and_its_timing(tmp_path, capsys, monkeypatch):
     assert set(seen) == {"dynamic"} and 0 <= seen["dynamic"] < 60
     assert main([str(path), "--out", str(tmp_path / "run.h5"), "--quiet"]) == 0
     assert "compiling" not in capsys.readouterr().err
+
+
+CASE_OF_KIND = {
+    "dynamic": TINY, "newton": STATIC, "relaxation": STATIC.replace("method: newton, ", ""),
+    "linear": STATIC.replace("mode: static, method: newton, load_steps: 2", "mode: linear"),
+    "modal": STATIC.replace("mode: static, method: newton, load_steps: 2",
+                            "mode: modal, modes: 3").replace(
+        "loads: [{group: tip, force: [0, 0, -1.0e3]}]\n", ""),
+}
+
+
+@pytest.mark.parametrize("kind", sorted(CASE_OF_KIND))
+def test_the_kernels_watched_are_those_a_run_calls(tmp_path, kind):
+    """Every kernel RUN_KERNELS names for a kind (and for the build) is
+    compiled by a run of that kind: else the notice would say "compiling"
+    on every run."""
+    import subprocess
+    import sys
+    path = _write(tmp_path, CASE_OF_KIND[kind])
+    from rbsm_dyn.case import load_case
+    assert cli._run_kind(load_case(path)) == kind
+    # in a process of its own (here, earlier tests have compiled everything)
+    script = textwrap.dedent(f"""\
+        import importlib
+        from rbsm_dyn import __main__ as cli
+        assert cli.main([{str(path)!r}, "--out", {str(tmp_path / "k.h5")!r}, "--quiet"]) == 0
+        for mod, name in cli.RUN_KERNELS["build"] + cli.RUN_KERNELS[{kind!r}]:
+            f = getattr(importlib.import_module("rbsm_dyn." + mod), name)
+            if not f.signatures:
+                print("not called:", mod, name)
+        """)
+    r = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                       timeout=600)
+    assert r.returncode == 0, r.stderr
+    assert "not called" not in r.stdout, r.stdout
 
 
 # ------------------------------- item 7: contradictions and unit traps ---
