@@ -280,7 +280,8 @@ def build_mesh(case):
     mesh, merged (mesh/merge.py), and the overlaps of touching parts'
     boundary faces (mesh/interface.py) added as internal faces that carry
     the index of their interface (Mesh.face_interface); parts that touch
-    with no interface in the case are an error."""
+    with no interface in the case are an error unless the case's
+    ``contact`` covers them (then they share no face: contact alone acts)."""
     from .case import scene_parts
     parts = scene_parts(case)
     if not case.parts:
@@ -305,14 +306,31 @@ def build_mesh(case):
     iface = np.full(len(lo), -1, dtype=np.int64)
     for (p0, p1), i in pair_of.items():
         iface[(lo == p0) & (hi == p1)] = i
-    if np.any(iface < 0):
-        k = int(np.argmax(iface < 0))
+    # touching parts without an interface: left to the case's contact
+    # between cells (physics/collide.py) when it covers them, else an error
+    covered = np.zeros(len(lo), dtype=bool)
+    if case.contact is not None:
+        if case.contact.between == "all":
+            covered[:] = True
+        else:
+            for na, nb_ in case.contact.between:
+                p0, p1 = sorted((names.index(na), names.index(nb_)))
+                covered |= (lo == p0) & (hi == p1)
+    if np.any((iface < 0) & ~covered):
+        k = int(np.argmax((iface < 0) & ~covered))
         p0, p1 = names[lo[k]], names[hi[k]]
         area = float(ov.area[(lo == lo[k]) & (hi == hi[k])].sum())
         raise case.error(("interfaces",), f"parts {p0} and {p1} touch ({area:.4g} m² of "
                          f"shared faces): say how they are joined, e.g. interfaces: "
-                         f"[{{parts: [{p0}, {p1}], law: bonded}}] or law: contact")
-    return add_interface_faces(mesh, ov.cells, ov.vertex_ptr, ov.vertex_xyz, ov.normal, iface)
+                         f"[{{parts: [{p0}, {p1}], law: bonded}}] or law: contact, or "
+                         f"leave them to contact: {{between: [{p0}, {p1}]}}")
+    keep = iface >= 0
+    if not np.any(keep):
+        return mesh
+    rows = np.repeat(keep, np.diff(ov.vertex_ptr))
+    ptr = np.concatenate(([0], np.cumsum(np.diff(ov.vertex_ptr)[keep])))
+    return add_interface_faces(mesh, ov.cells[keep], ptr, ov.vertex_xyz[rows],
+                               ov.normal[keep], iface[keep])
 
 
 def part_mesh(case, part):

@@ -139,7 +139,7 @@ def test_default_interval_and_other_forms():
         """)
     text = text.replace("  - {face: xmin, fix: all}\n",
                         "  - {face: xmin, fix: [z]}\n"
-                        "  - {group: tip, fix: [x, rz]}\n"
+                        "  - {group: tip, fix: [rx, rz]}\n"
                         "  - {group: tip, velocity: [null, 0, 1.5], history: [[0, 0], [1.0e-4, 1]]}\n"
                         "  - {group: tip, displacement: [0.001, null, null]}\n")
     case = load_case_text(text)
@@ -147,7 +147,7 @@ def test_default_interval_and_other_forms():
     assert case.mesh.divisions == [30, 1, 2]
     b = case.boundary
     assert [type(x) for x in b] == [FaceSupport, GroupFix, GroupVelocity, GroupDisplacement]
-    assert b[0].fix == ["z"] and b[1].fix == ["x", "rz"]
+    assert b[0].fix == ["z"] and b[1].fix == ["rx", "rz"]
     assert b[2].velocity == [None, 0, 1.5] and b[2].history == [[0, 0], [1e-4, 1]]
     assert b[3].displacement == [0.001, None, None] and b[3].history is None
     assert case.initial[0].group == "all"
