@@ -249,7 +249,10 @@ class Interface(_Node):
 
 
 class Yield(_Node):
-    """Yield criterion of the springs (accepted, not yet used by the solver)."""
+    """Yield criterion of the springs (physics/laws/plastic.py): the
+    traction of each spring point returned to the surface of ``criterion``
+    with ``stress`` (normal, tresca, von_mises) or ``cohesion``,
+    ``friction_angle`` [degrees] and ``tension`` (mohr_coulomb)."""
     criterion: Literal["normal", "tresca", "von_mises", "mohr_coulomb"]
     stress: Optional[float] = Field(default=None, gt=0)
     cohesion: Optional[float] = Field(default=None, ge=0)
