@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 import numba as nb
 import numpy as np
 
-from .physics.collide import N_OUT, O_K, body_pairs, broad_phase, carry_slip, neighbour_active
+from .physics.collide import N_OUT, O_C, O_K, O_KT, O_N, body_pairs, broad_phase, carry_slip, neighbour_active
 from .physics.contact_geometry import SCRATCH_ROWS, planes_from_loops
 from .physics.rotation import quat_matrix_np
 
@@ -242,6 +242,7 @@ class ContactState:
     scratch: np.ndarray
     builds: int = 0
     stiff_warning: str = field(default="")
+    spring_rows: np.ndarray = None      # the springs' row sums (stiffness_check)
 
     def args(self, cm):
         """The arguments of collide.contact_step after ``commit``."""
@@ -328,31 +329,44 @@ def chunk_steps(model, state, dt, gravity):
 
 
 def stiffness_check(model, state, dt, est):
-    """The stable step with the present contacts (Weyl: λ_max(K_s + K_c) ≤
-    λ_s + λ_c; λ_s = (2/est)², λ_c ≤ the largest 2 k (1/m_a + r_a²/I_a +
-    1/m_b + r_b²/I_b) of a closed pair, r the lever of its point): a
-    message when dt exceeds it, else ""."""
+    """The stable step with the present contacts: the Gershgorin row sums
+    of the mass-scaled stiffness (model.scaled_row_sums, Model.stable_dt)
+    per body DOF, the springs' (at rest) plus those of the closed contacts
+    as springs (k_n, k_t, k_t) at their points in their frames (n, t, t);
+    the springs' refined bound (2/est)² scaled by how much the largest row
+    grows.  A message when dt exceeds the step that gives, else ""."""
+    from .model import _scaled_row_sums, scaled_row_sums
     cs = state.contact
     if not len(cs.pairs):
         return ""
-    k = cs.out[:, O_K]
-    on = k > 0
+    on = cs.out[:, O_K] > 0
     if not np.any(on):
         return ""
     n = model.n_bodies
-    a = cs.pairs[on, 0]
-    b = cs.pairs[on, 1]
-    c = cs.out[on, 3:6]
-    imin = model.body_inertia.min(axis=1)
-    ra = np.sum((c - state.body_pos[a]) ** 2, axis=1)
-    lam = 1.0 / model.body_mass[a] + ra / imin[a]
-    inner = b < n
-    bi = b[inner]
-    rb = np.sum((c[inner] - state.body_pos[bi]) ** 2, axis=1)
-    lam[inner] += 1.0 / model.body_mass[bi] + rb / imin[bi]
-    lam_c = float(np.max(2.0 * k[on] * lam))
+    if cs.spring_rows is None:
+        cs.spring_rows = (scaled_row_sums(model) if model.n_springs
+                          else np.zeros((n, 6)))
+    pairs = np.ascontiguousarray(cs.pairs[on])
+    out = cs.out[on]
+    c = out[:, O_C:O_C + 3]
+    rot = state.body_rot
+    pos = state.body_pos
+    # arms in each body's (present) frame: Rᵀ (c − x); the ground's: none
+    arm_a = np.einsum("pki,pk->pi", rot[pairs[:, 0]], c - pos[pairs[:, 0]])
+    arm_b = np.einsum("pki,pk->pi", rot[pairs[:, 1]], c - pos[pairs[:, 1]])
+    nrm = out[:, O_N:O_N + 3]
+    t1 = np.cross(nrm, np.where(np.abs(nrm[:, :1]) < 0.9, [[1.0, 0, 0]], [[0, 1.0, 0]]))
+    t1 /= np.linalg.norm(t1, axis=1)[:, None]
+    frames = np.ascontiguousarray(np.stack([nrm, t1, np.cross(nrm, t1)], axis=2))
+    k = np.ascontiguousarray(np.stack([out[:, O_K], out[:, O_KT], out[:, O_KT]], axis=1))
+    rows = np.zeros((n, 6))
+    _scaled_row_sums(pairs, arm_a, arm_b, rot, frames, k, model.body_mass,
+                     model.body_inertia, np.ones((n + 1, 6)), rows)
+    g_s = float(cs.spring_rows.max(initial=0.0))
+    g_sc = float((cs.spring_rows + rows).max())
     lam_s = (2.0 / est) ** 2 if np.isfinite(est) and est > 0 else 0.0
-    limit = 2.0 / np.sqrt(lam_s + lam_c)
+    lam = lam_s * g_sc / g_s if g_s > 0 and lam_s > 0 else g_sc
+    limit = 2.0 / np.sqrt(lam)
     if dt <= limit:
         return ""
     return (f"contact stiffness lowers the stable step bound to {limit:.4g} s at "

@@ -57,7 +57,9 @@ O_W = 7          # friction dissipation of this step [J]
 O_A = 8          # contact area [m²] (0: not touching)
 O_K = 9          # normal stiffness k_n A_c [N/m]
 O_D = 10         # dashpot force on a [N] (world), 3 columns (part of O_F)
-N_OUT = 13
+O_N = 13         # contact normal n (world, out of b into a), 3 columns
+O_KT = 16        # tangential stiffness k_t [N/m]
+N_OUT = 17
 
 
 @nb.njit(**JIT)
@@ -451,6 +453,10 @@ def _pair_force(p, pairs, slip, sep, out, dt, body_pos, body_rot, body_vel, body
     out[p, O_W] = diss
     out[p, O_A] = area
     out[p, O_K] = kn
+    out[p, O_N] = n0
+    out[p, O_N + 1] = n1
+    out[p, O_N + 2] = n2
+    out[p, O_KT] = kt
     out[p, O_D] = fd * n0
     out[p, O_D + 1] = fd * n1
     out[p, O_D + 2] = fd * n2
