@@ -2,7 +2,7 @@
 
     python -m rbsm_dyn export RUN.h5 [--every N] [--out DIR]
 
-writes, in DIR (default ``RUN_vtk/`` beside RUN.h5):
+writes, in DIR (default ``RUN/vtk/`` beside RUN.h5: run_folder):
 
 * ``cells.pvd`` + ``cells/frame_NNNNNN.vtu``: the cells as polyhedra
   (VTK_POLYHEDRON), vertices moved rigidly with their body (position and
@@ -72,6 +72,16 @@ CELL_SERIES = ("particles/bodies/position", "particles/bodies/orientation",
 FACE_SERIES = ("springs/state", "springs/damage")
 #: the damage of each spring point (field spring_damage, solvers/output.py)
 DAMAGE_SERIES = "springs/damage"
+
+
+
+def run_folder(path):
+    """The folder beside a history RUN.h5 where what is made from it lands
+    by default: RUN/ (export's vtk/, render's frameK.png, plot's
+    plot.png), so that a working directory holds one file and one folder
+    per run (issue 17)."""
+    path = Path(path)
+    return path.with_name(path.stem)
 
 
 def spring_damage(h: History, k: int):
@@ -248,7 +258,7 @@ def export(path, out_dir=None, *, every: int = 1, frames=None, log=None) -> dict
     path = Path(path)
     if every < 1:
         raise ValueError(f"--every must be >= 1 (got {every})")
-    out = Path(out_dir) if out_dir is not None else path.with_name(path.stem + "_vtk")
+    out = Path(out_dir) if out_dir is not None else run_folder(path) / "vtk"
     require_rbsm_history(path)
     head = open_history(path, frames=[])
     geom = head.geometry()
@@ -309,7 +319,7 @@ def add_arguments(p) -> None:
     p.add_argument("history", help="history file (RUN.h5)")
     p.add_argument("--every", type=int, default=1, metavar="N",
                    help="write every N-th frame (and the last); default 1")
-    p.add_argument("--out", metavar="DIR", help="output folder (default RUN_vtk/ beside RUN.h5)")
+    p.add_argument("--out", metavar="DIR", help="output folder (default RUN/vtk/ beside RUN.h5)")
     p.add_argument("--quiet", action="store_true", help="print nothing on success")
 
 

@@ -55,7 +55,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .export import STRESS_MEASURES, cells_mesh, faces_mesh, spring_damage
+from .export import STRESS_MEASURES, cells_mesh, faces_mesh, run_folder, spring_damage
 from .geometry import frame_state
 from .history import input_problem, open_history, require_rbsm_history
 
@@ -481,7 +481,7 @@ def render(path, *, frame: int = -1, out=None, scale: float | None = None,
     try:
         path = Path(path)
         out = (Path(out) if out is not None
-               else path.with_name(f"{path.stem}_frame{info['frame']}.png"))
+               else run_folder(path) / f"frame{info['frame']}.png")
         out.parent.mkdir(parents=True, exist_ok=True)
         pl.screenshot(str(out))
     finally:
@@ -594,7 +594,7 @@ def plot(path, *, out=None, max_probes: int = 6) -> dict:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     path = Path(path)
-    out = Path(out) if out is not None else path.with_name(f"{path.stem}_plot.png")
+    out = Path(out) if out is not None else run_folder(path) / "plot.png"
     require_rbsm_history(path)
     names = _observable_names(path)
     probes = [n for n in names if n not in NOT_PROBES][:max_probes]
@@ -715,7 +715,7 @@ def add_arguments(p) -> None:
     p.add_argument("history", help="history file (RUN.h5)")
     p.add_argument("--frame", type=int, default=-1, metavar="K",
                    help="frame to draw (negative counts from the end; default the last)")
-    p.add_argument("--out", metavar="PNG", help="picture file (default RUN_frameK.png)")
+    p.add_argument("--out", metavar="PNG", help="picture file (default RUN/frameK.png beside RUN.h5)")
     p.add_argument("--scale", type=float, default=None, metavar="F",
                    help="displacement magnification (default: automatic, printed)")
     p.add_argument("--size", type=int, nargs=2, default=(1600, 800), metavar=("W", "H"),
@@ -772,7 +772,7 @@ def main(args) -> int:
 def add_plot_arguments(p) -> None:
     p.description = PLOT_DESCRIPTION
     p.add_argument("history", help="history file (RUN.h5)")
-    p.add_argument("--out", metavar="PNG", help="picture file (default RUN_plot.png)")
+    p.add_argument("--out", metavar="PNG", help="picture file (default RUN/plot.png beside RUN.h5)")
     p.add_argument("--quiet", action="store_true", help="print nothing on success")
 
 
