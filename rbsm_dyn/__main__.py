@@ -411,19 +411,31 @@ def main(argv=None):
             pass
         return 141
     except KeyboardInterrupt:
-        try:
-            print("rbsm_dyn: interrupted", file=sys.stderr)
-            sys.stderr.flush()
-            sys.stdout.flush()
-        except Exception:
-            pass
-        if argv is None:
-            # as a program: CPython marks a KeyboardInterrupt that went through
-            # code run by PyRun_* (inside some imports) as unhandled and, even
-            # though it was caught here, ends the process by SIGINT (-2) at
-            # exit; the files are closed and the lock released: leave now
-            os._exit(130)
-        return 130
+        return _interrupted(argv)
+    except Exception:
+        if _INTERRUPTED:
+            # a KeyboardInterrupt that a library wrapped in an error of its
+            # own (Ctrl-C inside `import numba`: class creation turns it into
+            # RuntimeError "Error calling __set_name__"): still Ctrl-C
+            return _interrupted(argv)
+        raise
+
+
+def _interrupted(argv):
+    """One line and 130 for Ctrl-C (see main)."""
+    try:
+        print("rbsm_dyn: interrupted", file=sys.stderr)
+        sys.stderr.flush()
+        sys.stdout.flush()
+    except Exception:
+        pass
+    if argv is None:
+        # as a program: CPython marks a KeyboardInterrupt that went through
+        # code run by PyRun_* (inside some imports) as unhandled and, even
+        # though it was caught here, ends the process by SIGINT (-2) at
+        # exit; the files are closed and the lock released: leave now
+        os._exit(130)
+    return 130
 
 
 def _option_problem(args):
