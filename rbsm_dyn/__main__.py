@@ -48,7 +48,7 @@ def _parser():
                    help="stop after this many steps (iterations in static mode)")
     p.add_argument("--threads", type=int, default=None,
                    help="Numba threads (default: 1 below 30 000 spring points, else the cores "
-                        "the load average leaves idle)")
+                        "other running processes leave idle, looked at again every 30 s)")
     p.add_argument("--restart", metavar="RUN.h5",
                    help="continue the run of this history file from its last checkpoint "
                    "(dynamic mode; frames are appended to RUN.h5)")
