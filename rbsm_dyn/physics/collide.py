@@ -100,6 +100,19 @@ def cell_boxes(body_pos, body_rot, cell_loop_ptr, loop_xyz, margin):
     return box
 
 
+@nb.njit(inline="always", **JIT)
+def _push(out, m, a, b):
+    """Row m of the pair list set to (a, b), the list doubled when full;
+    returns the list."""
+    if m == out.shape[0]:
+        grown = np.empty((2 * m, 2), dtype=np.int32)
+        grown[:m] = out[:m]
+        out = grown
+    out[m, 0] = a
+    out[m, 1] = b
+    return out
+
+
 @nb.njit(**JIT)
 def broad_phase(body_pos, body_rot, cell_loop_ptr, loop_xyz, radius, skin, body_part,
                 allowed, nbr_key, nbr_active, ground, has_ground):
@@ -131,8 +144,7 @@ def broad_phase(body_pos, body_rot, cell_loop_ptr, loop_xyz, radius, skin, body_
     for i in range(n):
         low[i] = box[i, ax]
     order = np.argsort(low, kind="mergesort")
-    cap = 8 * n + 16
-    out = np.empty((cap, 2), dtype=np.int32)
+    out = np.empty((8 * n + 16, 2), dtype=np.int32)
     m = 0
     nk = np.int64(n + 1)
     for ii in range(n):
@@ -159,26 +171,14 @@ def broad_phase(body_pos, body_rot, cell_loop_ptr, loop_xyz, radius, skin, body_
             pos = np.searchsorted(nbr_key, key)
             if pos < nbr_key.shape[0] and nbr_key[pos] == key and nbr_active[pos]:
                 continue
-            if m == cap:
-                cap *= 2
-                grown = np.empty((cap, 2), dtype=np.int32)
-                grown[:m] = out[:m]
-                out = grown
-            out[m, 0] = a
-            out[m, 1] = b
+            out = _push(out, m, a, b)
             m += 1
     if has_ground:
         for i in range(n):
             dist = (ground[0] * body_pos[i, 0] + ground[1] * body_pos[i, 1]
                     + ground[2] * body_pos[i, 2] - ground[3])
             if dist <= radius[i] + h:
-                if m == cap:
-                    cap *= 2
-                    grown = np.empty((cap, 2), dtype=np.int32)
-                    grown[:m] = out[:m]
-                    out = grown
-                out[m, 0] = i
-                out[m, 1] = n
+                out = _push(out, m, i, n)
                 m += 1
     keys = np.empty(m, dtype=np.int64)
     for p in range(m):
