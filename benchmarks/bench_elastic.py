@@ -82,24 +82,21 @@ def fresh_state(case, model):
 
 def split_passes(model, state, n_steps):
     """Wall time of the spring pass and the body pass alone over n_steps."""
+    from rbsm_dyn.physics.arrays import Stepping
     from rbsm_dyn.physics.integrate import dynamic_body_pass
     from rbsm_dyn.physics.springs import elastic_spring_pass
+    from rbsm_dyn.solvers.passes import Options, body_state, model_arrays, parallel_arg
     m, s = model, state
+    bodies, springs, loads = model_arrays(m)
+    par = parallel_arg(Options.of(m))
+    bs = body_state(s)
+    step = Stepping(s.dt, 0.0, 0.0)
     t_spring = t_body = 0.0
     for k in range(n_steps):
         t0 = time.perf_counter()
-        elastic_spring_pass(m.phase_ptr, m.group_ptr, m.spring_bodies, m.spring_arm_a,
-                            m.spring_arm_b, m.spring_slot, m.face_frame0, m.face_k, m.spring_area, s.body_pos,
-                            s.body_rot,
-                            s.body_dq, s.body_wrench, s.body_support, False, s.spring_force)
+        elastic_spring_pass(springs, bs, False, par)
         t1 = time.perf_counter()
-        dynamic_body_pass(k * s.dt, s.dt, s.body_wrench, s.body_support, m.body_mass,
-                          m.body_inertia, s.body_pos, m.body_pos0, s.body_quat, m.body_quat0,
-                          s.body_vel, s.body_angmom, s.body_rot, s.body_dq, m.body_fext,
-                          m.body_mext, m.body_ffol, m.body_mfol, m.body_load_hist, m.gravity,
-                          0.0, m.dof_kind,
-                          m.dof_value, m.dof_hist, m.hist_ptr, m.hist_t, m.hist_a,
-                          s.body_work, s.body_damp, s.body_reaction)
+        dynamic_body_pass(k * s.dt, step, bodies, loads, bs, par)
         t2 = time.perf_counter()
         t_spring += t1 - t0
         t_body += t2 - t1

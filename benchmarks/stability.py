@@ -61,6 +61,7 @@ from rbsm_dyn.case import DT_SAFETY_MAX, load_case_text  # noqa: E402
 from rbsm_dyn.model import apply_initial, build_model, new_state  # noqa: E402
 from rbsm_dyn.physics.laws import BROKEN, CONTACT  # noqa: E402
 from rbsm_dyn.physics.springs import spring_local_gap  # noqa: E402
+from rbsm_dyn.solvers.passes import body_state, model_arrays  # noqa: E402
 from rbsm_dyn.solvers.output import strain_energy_of  # noqa: E402
 from rbsm_dyn.solvers import modal  # noqa: E402
 from rbsm_dyn.solvers.explicit import advance, choose_dt, start_half_step, synchronize  # noqa: E402
@@ -508,8 +509,7 @@ def flip_diagnosis(n_steps=1300, jump=5e-3):
     d = np.zeros((m.n_springs, 3))
 
     def local_gap():
-        spring_local_gap(m.spring_bodies, m.spring_arm_a, m.spring_arm_b, m.spring_slot, m.face_frame0,
-                         st.body_pos, st.body_rot, st.body_dq, d)
+        spring_local_gap(model_arrays(m)[1], body_state(st), d)
         return d.copy()
 
     def rel_rotation(a, b):

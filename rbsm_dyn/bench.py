@@ -113,7 +113,11 @@ def run(bodies, steps, threads, physics, repeat=3, out=print, poisson=0.2):
     peak = _rss("VmHWM") - r0
     per_body, per_spring, other = footprint(model, fresh())
     t0 = time.perf_counter()
-    advance(model, fresh(), 1)
+    for nt in threads:
+        # one thread runs the serial passes, more the threaded ones
+        # (solvers/passes.py Options): each compiled or loaded here
+        numba.set_num_threads(nt)
+        advance(model, fresh(), 1)
     t_first = time.perf_counter() - t0
     out(f"first call (compile or cache load): {t_first:.2f} s ({numba.threading_layer()} "
         f"threading layer)")

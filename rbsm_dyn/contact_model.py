@@ -244,15 +244,6 @@ class ContactState:
     stiff_warning: str = field(default="")
     spring_rows: np.ndarray = None      # the springs' row sums (stiffness_check)
 
-    def args(self, cm):
-        """The arguments of collide.contact_step after ``commit``."""
-        return (self.pairs, self.slip, self.sep, self.out, self.ptr, self.entry,
-                self.body_friction, self.body_dwrench, cm.cell_face_ptr, cm.loop_ptr,
-                cm.loop_xyz, cm.face_plane, cm.cell_loop_ptr, cm.vert_ptr, cm.vert_xyz,
-                cm.radius, cm.body_size, cm.body_e, cm.body_g, cm.body_rigid, cm.ground,
-                cm.mu, cm.kfac,
-                cm.zeta, self.scratch)
-
     def trial(self):
         """A copy whose commits (slip, friction) do not touch this one."""
         return ContactState(self.pairs, self.slip.copy(), self.sep.copy(), self.out.copy(),

@@ -9,7 +9,9 @@ import pytest
 from rbsm_dyn.case import load_case_text
 from rbsm_dyn.model import build_model, new_state
 from rbsm_dyn.physics.laws import BROKEN, CONTACT, ELASTIC, YIELDED
+from rbsm_dyn.physics.arrays import SpringHistory, of
 from rbsm_dyn.physics.inelastic import inelastic_spring_pass
+from rbsm_dyn.solvers.passes import body_state, model_arrays
 
 E, RHO = 200.0e9, 8000.0
 SY = 250.0e6          # VERIFICATION default σy
@@ -36,11 +38,8 @@ def step(m, st, u):
     τz) [Pa]: the force on body 0 over the area (DESIGN.md §1: tension pulls
     body 0 toward body 1, σ > 0)."""
     st.body_pos[1] = m.body_pos0[1] + u
-    inelastic_spring_pass(m.phase_ptr, m.group_ptr, m.spring_bodies, m.spring_arm_a,
-                          m.spring_arm_b, m.spring_slot, m.face_frame0, m.face_k, m.spring_area, m.face_h, m.face_law, m.law_params, st.body_pos, st.body_rot, st.body_dq,
-                          st.body_wrench, st.body_support, st.spring_state, st.spring_dp,
-                          st.spring_kappa, st.spring_dmg, st.spring_wp, st.spring_wf, True,
-                          st.spring_force)
+    inelastic_spring_pass(model_arrays(m)[1], body_state(st), of(SpringHistory, st), True, False,
+                          None)
     return st.spring_force.sum(axis=0) / A
 
 

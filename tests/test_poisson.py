@@ -27,9 +27,10 @@ from rbsm_dyn.calibration import NU_MAX, NU_TABLE_MAX, stiffness_rule
 from rbsm_dyn.case import load_case_text
 from rbsm_dyn.model import build_mesh, build_model, new_state
 from rbsm_dyn.physics.integrate import refresh_all_rotations
-from rbsm_dyn.physics.poisson import (RCOND, cell_dilatation, poisson_args, poisson_energy,
-                                      poisson_pass, poisson_stiffness)
+from rbsm_dyn.physics.poisson import (RCOND, cell_dilatation, poisson_energy, poisson_pass,
+                                      poisson_slots, poisson_stiffness)
 from rbsm_dyn.physics.rotation import quat_mul_np
+from rbsm_dyn.solvers.passes import body_state
 from rbsm_dyn.stiffness import stiffness_matrix, uniaxial_moduli
 
 E = 200.0e9
@@ -92,8 +93,8 @@ def aux_wrench(model, pos, rot):
     n = model.n_bodies
     st = new_state(model)
     out = np.zeros((n + 1, 6))
-    a = poisson_args(model, st)
-    poisson_pass(False, *a[:8], np.zeros(0, np.int8), np.zeros(0), pos, rot, a[8], a[9], out)
+    st.body_pos, st.body_rot, st.body_wrench = pos, rot, out
+    poisson_pass(poisson_slots(model.poisson, st.aux_g, st.aux_p), body_state(st), None, None)
     return out[:n]
 
 

@@ -12,10 +12,11 @@ import numpy as np
 import pytest
 
 from rbsm_dyn.case import load_case_text
-from rbsm_dyn.model import build_model
+from rbsm_dyn.model import build_model, new_state
 from rbsm_dyn.physics.integrate import refresh_all_rotations
 from rbsm_dyn.physics.rotation import quat_matrix_np
 from rbsm_dyn.physics.springs import elastic_spring_pass
+from rbsm_dyn.solvers.passes import body_state, model_arrays
 from rbsm_dyn.stiffness import (mass_matrix, rigid_modes, solve_linear, spring_forces,
                                 stiffness_matrix)
 
@@ -100,9 +101,9 @@ def kernel_body_forces(model, U):
     S = model.n_springs
     f = np.zeros((S, 3))
     out = np.zeros((n + 1, 6))
-    elastic_spring_pass(model.phase_ptr, model.group_ptr, model.spring_bodies,
-                        model.spring_arm_a, model.spring_arm_b, model.spring_slot, model.face_frame0, model.face_k, model.spring_area, pos, rot, dq, out, np.zeros((n + 1, 3)),
-                        True, f)
+    st = new_state(model)
+    st.body_pos, st.body_rot, st.body_dq, st.body_wrench, st.spring_force = pos, rot, dq, out, f
+    elastic_spring_pass(model_arrays(model)[1], body_state(st), True, None)
     return out[:n], f
 
 

@@ -126,7 +126,10 @@ def _grid(tri, lo_u, lo_v, hu, hv, nu, nv):
 
 
 @numba.njit(cache=True)
-def _winding(pts, tri, start, cell_tri, lo_u, lo_v, hi_u, hi_v, hu, hv, nu, nv, w_max, out):
+def _winding(pts, tri, start, cell_tri, grid, out):
+    """Inside flag of every point (grid: lo_u, lo_v, hi_u, hi_v, hu, hv,
+    nu, nv, w_max of the triangles' bins)."""
+    lo_u, lo_v, hi_u, hi_v, hu, hv, nu, nv, w_max = grid
     for p in range(pts.shape[0]):
         pu, pv, pw = pts[p, 0], pts[p, 1], pts[p, 2]
         out[p] = False
@@ -183,6 +186,7 @@ class ContainsIndex:
     def __call__(self, points):
         pts = np.ascontiguousarray(np.asarray(points, dtype=np.float64)[:, self.perm])
         out = np.empty(len(pts), dtype=np.bool_)
-        _winding(pts, self.tri, self.start, self.cell_tri, self.lo_u, self.lo_v,
-                 self.hi_u, self.hi_v, self.hu, self.hv, self.nu, self.nv, self.w_max, out)
+        _winding(pts, self.tri, self.start, self.cell_tri,
+                 (self.lo_u, self.lo_v, self.hi_u, self.hi_v, self.hu, self.hv, self.nu,
+                  self.nv, self.w_max), out)
         return out

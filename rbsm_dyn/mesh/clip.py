@@ -746,8 +746,8 @@ def _split_coplanar_faces(cop, xyz, bf, ptr, lfid, lpiece, q_face, q_xyz, q_side
     e2 = np.cross(cop.normal, e1)
     tol = 1e-9 * np.sqrt(np.maximum(cop.area, 0.0)) + 1e-13 * scale
     o_ptr, o_xyz, o_j, o_kind, o_piece, o_facet, status = _overlay_kernel(
-        vp, vx, cop.centroid, e1, e2, tol, q_face_ptr, q_xyz, q_side, q_piece, q_sign,
-        t_face_ptr, v[t[pt]], np.where(cop.pair_sign > 0, 0, 1), tri_facet[pt], t_border)
+        (vp, vx), (cop.centroid, e1, e2, tol), (q_face_ptr, q_xyz, q_side, q_piece, q_sign),
+        (t_face_ptr, v[t[pt]], np.where(cop.pair_sign > 0, 0, 1), tri_facet[pt], t_border))
     if np.any(status == 1):
         raise ValueError("a cell face on the solid's surface is split into parts that touch "
                          "at a point only; shift or resize the cells slightly")
@@ -856,16 +856,21 @@ def _grown(a, n):
 
 
 @njit(cache=True)
-def _overlay_kernel(f_ptr, f_xyz, origin, e1, e2, tol, q_face_ptr, q_xyz, q_side, q_piece, q_sign,
-                    t_face_ptr, t_xyz, t_side, t_facet, t_border):
-    """_split_coplanar_faces for each face j: its polygon (f_ptr, f_xyz),
-    the pieces' triangles q_face_ptr[j]:q_face_ptr[j+1] in its plane (side 0:
-    cell a's, 1: cell b's; orientation ±1), the solid's triangles
-    t_face_ptr[j]:t_face_ptr[j+1] in its plane (t_side 0: outward normal the
-    face's, a's surface; 1: b's).  Returns the new loops: ptr, xyz, face j,
+def _overlay_kernel(faces, plane, pieces, solid):
+    """_split_coplanar_faces for each face j: its polygon (faces: f_ptr,
+    f_xyz; plane: origin, e1, e2, tol), the pieces' triangles
+    q_face_ptr[j]:q_face_ptr[j+1] in its plane (pieces: q_face_ptr, q_xyz,
+    q_side, q_piece, q_sign; side 0: cell a's, 1: cell b's; orientation
+    ±1), the solid's triangles t_face_ptr[j]:t_face_ptr[j+1] in its plane
+    (solid: t_face_ptr, t_xyz, t_side, t_facet, t_border; t_side 0: outward
+    normal the face's, a's surface; 1: b's).  Returns the new loops: ptr, xyz, face j,
     kind (0: internal seen from a, 1: from b, 2: boundary), piece, facet, and
     a status per face (0 ok, 1 a part pinched at a vertex, 2 a part on the
     surface outside every facet)."""
+    f_ptr, f_xyz = faces
+    origin, e1, e2, tol = plane
+    q_face_ptr, q_xyz, q_side, q_piece, q_sign = pieces
+    t_face_ptr, t_xyz, t_side, t_facet, t_border = solid
     J = f_ptr.shape[0] - 1
     status = np.zeros(J, np.int64)
     cap_l = 64

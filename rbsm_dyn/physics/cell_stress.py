@@ -61,7 +61,7 @@ whatever the thread count.  Output steps only: a run without the
 import numba as nb
 import numpy as np
 
-from .springs import material_points, serial_pass
+from .springs import SERIAL_SPRINGS, material_points
 
 JIT = dict(cache=True, nogil=True, fastmath={"contract"}, error_model="numpy")
 
@@ -134,7 +134,7 @@ def spring_moment(phase_ptr, group_ptr, spring_bodies, spring_arm_a, spring_arm_
     write it at output steps)."""
     out = np.zeros((body_pos.shape[0], 9))
     n_groups = phase_ptr[-1]
-    if serial_pass(spring_bodies.shape[0]):
+    if spring_bodies.shape[0] < SERIAL_SPRINGS:
         _gather_serial(0, n_groups, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
                        spring_force, body_pos, body_rot, out)
         return out

@@ -45,6 +45,7 @@ import math
 import numba as nb
 import numpy as np
 
+from .arrays import flag
 from .contact_geometry import overlap, overlap_halfspace
 
 JIT = dict(cache=True, nogil=True, fastmath=False, error_model="numpy")
@@ -325,7 +326,7 @@ def _spin(i, body_rot, body_angmom, body_inertia):
             R[2, 0] * b0 + R[2, 1] * b1 + R[2, 2] * b2)
 
 
-@nb.njit(**JIT)
+@nb.njit(inline="always", **JIT)
 def _pair_force(p, pairs, slip, sep, out, dt, body_pos, body_rot, body_vel, body_angmom,
                 body_inertia, body_mass, cell_face_ptr, loop_ptr, loop_xyz, face_plane,
                 cell_loop_ptr, vert_ptr, vert_xyz, radius, body_size, body_e, body_g,
@@ -463,14 +464,40 @@ def _pair_force(p, pairs, slip, sep, out, dt, body_pos, body_rot, body_vel, body
 
 
 @nb.njit(parallel=True, **JIT)
-def contact_forces(pairs, slip, sep, out, dt, body_pos, body_rot, body_vel, body_angmom,
-                   body_inertia, body_mass, cell_face_ptr, loop_ptr, loop_xyz, face_plane,
-                   cell_loop_ptr, vert_ptr, vert_xyz, radius, body_size, body_e, body_g,
-                   body_rigid, ground, mu, kfac, zeta, scratch):
+def contact_forces(contact, bodies, bs, dt):
     """Force of every candidate pair (see module) into ``out`` (P, N_OUT),
-    slip memory updated in ``slip``.  Pairs split into len(scratch) equal
-    blocks, one per block of scratch: each pair's result depends on it
-    alone, so any thread count gives the same numbers."""
+    slip memory updated in ``slip`` (contact: arrays.ContactArrays).  Pairs
+    split into len(scratch) equal blocks, one per block of scratch: each
+    pair's result depends on it alone, so any thread count gives the same
+    numbers."""
+    # the fields into locals before the prange (physics/arrays.py)
+    pairs = contact.pairs
+    slip = contact.slip
+    sep = contact.sep
+    out = contact.out
+    cell_face_ptr = contact.cell_face_ptr
+    loop_ptr = contact.loop_ptr
+    loop_xyz = contact.loop_xyz
+    face_plane = contact.face_plane
+    cell_loop_ptr = contact.cell_loop_ptr
+    vert_ptr = contact.vert_ptr
+    vert_xyz = contact.vert_xyz
+    radius = contact.radius
+    body_size = contact.body_size
+    body_e = contact.body_e
+    body_g = contact.body_g
+    body_rigid = contact.body_rigid
+    ground = contact.ground
+    mu = contact.mu
+    kfac = contact.kfac
+    zeta = contact.zeta
+    scratch = contact.scratch
+    body_pos = bs.body_pos
+    body_rot = bs.body_rot
+    body_vel = bs.body_vel
+    body_angmom = bs.body_angmom
+    body_inertia = bodies.body_inertia
+    body_mass = bodies.body_mass
     n_pairs = pairs.shape[0]
     nblk = scratch.shape[0]
     for t in nb.prange(nblk):
@@ -484,9 +511,7 @@ def contact_forces(pairs, slip, sep, out, dt, body_pos, body_rot, body_vel, body
 
 
 @nb.njit(parallel=True, **JIT)
-def contact_gather(ptr, entry, pairs, out, dt, body_pos, body_vel, body_angmom, body_rot,
-                   body_inertia, body_wrench, body_damp, body_friction, body_dwrench,
-                   overwrite, commit):
+def contact_gather(contact, bodies, bs, dt, overwrite, commit):
     """Add each body's contact forces and their moments about its centre
     (pair order) to body_wrench (overwrite: set it, for a model without
     springs); with ``commit``, book the step's friction dissipation, half to
@@ -495,6 +520,20 @@ def contact_gather(ptr, entry, pairs, out, dt, body_pos, body_vel, body_angmom, 
     (Belytschko, Liu & Moran 2000, §6.2.4), so the dashpot wrench D_n of a
     body (kept in body_dwrench) is booked half with the velocities before
     the step and half with those after it, at the next step."""
+    # the fields into locals before the prange (physics/arrays.py)
+    ptr = contact.ptr
+    entry = contact.entry
+    pairs = contact.pairs
+    out = contact.out
+    body_friction = contact.body_friction
+    body_dwrench = contact.body_dwrench
+    body_pos = bs.body_pos
+    body_vel = bs.body_vel
+    body_angmom = bs.body_angmom
+    body_rot = bs.body_rot
+    body_wrench = bs.body_wrench
+    body_damp = bs.body_damp
+    body_inertia = bodies.body_inertia
     n = ptr.shape[0] - 1
     for i in nb.prange(n):
         w0 = w1 = w2 = w3 = w4 = w5 = 0.0
@@ -551,26 +590,16 @@ def contact_gather(ptr, entry, pairs, out, dt, body_pos, body_vel, body_angmom, 
 
 
 @nb.njit(**JIT)
-def contact_step(dt, body_pos, body_rot, body_vel, body_angmom, body_inertia, body_mass,
-                 body_wrench, body_damp, overwrite, commit, pairs, slip, sep, out, ptr, entry,
-                 body_friction, body_dwrench, cell_face_ptr, loop_ptr, loop_xyz, face_plane,
-                 cell_loop_ptr, vert_ptr, vert_xyz, radius, body_size, body_e, body_g,
-                 body_rigid, ground, mu, kfac, zeta, scratch):
+def contact_step(contact, bodies, bs, dt, commit):
     """One step's contact: the pair forces, then each body's sum added to
-    its wrench (the arguments after ``commit``: contact_model.ContactState
-    .args)."""
-    if pairs.shape[0] == 0:
+    its wrench (contact: arrays.ContactArrays; with ``commit`` the slip
+    memory, friction and dashpot work of the step are kept)."""
+    overwrite = contact.overwrite
+    if contact.pairs.shape[0] == 0:
         if overwrite:
-            body_wrench[:] = 0.0
+            bs.body_wrench[:] = 0.0
         if commit:
-            contact_gather(ptr, entry, pairs, out, dt, body_pos, body_vel, body_angmom,
-                           body_rot, body_inertia, body_wrench, body_damp, body_friction,
-                           body_dwrench, False, commit)
+            contact_gather(contact, bodies, bs, dt, flag(False), commit)
         return
-    contact_forces(pairs, slip, sep, out, dt, body_pos, body_rot, body_vel, body_angmom,
-                   body_inertia, body_mass, cell_face_ptr, loop_ptr, loop_xyz, face_plane,
-                   cell_loop_ptr, vert_ptr, vert_xyz, radius, body_size, body_e, body_g,
-                   body_rigid, ground, mu, kfac, zeta, scratch)
-    contact_gather(ptr, entry, pairs, out, dt, body_pos, body_vel, body_angmom, body_rot,
-                   body_inertia, body_wrench, body_damp, body_friction, body_dwrench,
-                   overwrite, commit)
+    contact_forces(contact, bodies, bs, dt)
+    contact_gather(contact, bodies, bs, dt, overwrite, commit)

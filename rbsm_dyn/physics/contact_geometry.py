@@ -119,11 +119,11 @@ def planes_from_loops(loop_ptr, loop_xyz):
 
 
 @nb.njit(**JIT)
-def _load(c, p, R, ox, oy, oz, cell_face_ptr, loop_ptr, loop_xyz, face_plane, w, v0, f0):
-    """Cell c's loop vertices into w[v0:] (world, less the origin o) and
-    its faces' records into w[f0:] (REC rows each: world plane, bounding
-    sphere, vertex rows); returns the number of vertex rows."""
-    tx, ty, tz = p[0] - ox, p[1] - oy, p[2] - oz
+def _load(c, p, R, o, cell_face_ptr, loop_ptr, loop_xyz, face_plane, w, v0, f0):
+    """Cell c's loop vertices into w[v0:] (world, less the origin o (3,))
+    and its faces' records into w[f0:] (REC rows each: world plane,
+    bounding sphere, vertex rows); returns the number of vertex rows."""
+    tx, ty, tz = p[0] - o[0], p[1] - o[1], p[2] - o[2]
     fa, fb = cell_face_ptr[c], cell_face_ptr[c + 1]
     base = loop_ptr[fa]
     for f in range(fa, fb):
@@ -314,9 +314,12 @@ def _sphere_apart(w, qf, cx, cy, cz, r):
 
 
 @nb.njit(**JIT)
-def _polytope(w, fa0, na, ca, ra, fb0, nb_, cb, rb, p0, cap, tol, o):
-    """Clip A's faces by B's planes and B's by A's (records at fa0, fb0),
+def _polytope(w, A, B, p0, cap, tol, o):
+    """Clip A's faces by B's planes and B's by A's (A, B: the first face
+    record, the number of faces, the bounding sphere's centre and radius),
     and sum: V, centroid (world: + o), S_B, |S_B| (see module)."""
+    fa0, na, ca, ra = A
+    fb0, nb_, cb, rb = B
     for i in range(na):
         q = fa0 + REC * i
         if _sphere_apart(w, q, cb[0], cb[1], cb[2], rb):
@@ -397,13 +400,13 @@ def overlap(ca, pa, Ra, cb, pb, Rb, cell_face_ptr, loop_ptr, loop_xyz, face_plan
         raise ValueError("overlap: scratch has fewer rows than SCRATCH_ROWS")
     tol = FLAT * (ra + rb)
     # coordinates relative to pa: small numbers near the contact
-    _load(ca, pa, Ra, pa[0], pa[1], pa[2], cell_face_ptr, loop_ptr, loop_xyz, face_plane,
+    _load(ca, pa, Ra, pa, cell_face_ptr, loop_ptr, loop_xyz, face_plane,
           scratch, 0, fa0)
-    _load(cb, pb, Rb, pa[0], pa[1], pa[2], cell_face_ptr, loop_ptr, loop_xyz, face_plane,
+    _load(cb, pb, Rb, pa, cell_face_ptr, loop_ptr, loop_xyz, face_plane,
           scratch, la, fb0)
     if _separated(scratch, fa0, na, la, lb, tol) or _separated(scratch, fb0, nb_, 0, la, tol):
         return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
-    return _polytope(scratch, fa0, na, (0.0, 0.0, 0.0), ra, fb0, nb_, (dx, dy, dz), rb,
+    return _polytope(scratch, (fa0, na, (0.0, 0.0, 0.0), ra), (fb0, nb_, (dx, dy, dz), rb),
                      p0, cap, tol, (pa[0], pa[1], pa[2]))
 
 
@@ -428,7 +431,7 @@ def overlap_halfspace(ca, pa, Ra, n, d, cell_face_ptr, loop_ptr, loop_xyz, face_
         raise ValueError("overlap_halfspace: scratch has fewer rows than SCRATCH_ROWS")
     tol = FLAT * 2.0 * ra
     w = scratch
-    _load(ca, pa, Ra, pa[0], pa[1], pa[2], cell_face_ptr, loop_ptr, loop_xyz, face_plane,
+    _load(ca, pa, Ra, pa, cell_face_ptr, loop_ptr, loop_xyz, face_plane,
           w, 0, fa0)
     # the ground as one face: its plane relative to pa, and a square of
     # side 4 r_A about the foot q = −h n of pa, counter-clockwise about n
@@ -459,5 +462,6 @@ def overlap_halfspace(ca, pa, Ra, n, d, cell_face_ptr, loop_ptr, loop_xyz, face_
     # all of A above the plane (or within tol of it): apart or touching
     if _separated(w, fb0, 1, 0, la, tol):
         return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
-    return _polytope(w, fa0, na, (0.0, 0.0, 0.0), ra, fb0, 1, (-h * nx, -h * ny, -h * nz),
-                     np.inf, p0, cap, tol, (pa[0], pa[1], pa[2]))
+    return _polytope(w, (fa0, na, (0.0, 0.0, 0.0), ra),
+                     (fb0, 1, (-h * nx, -h * ny, -h * nz), np.inf), p0, cap, tol,
+                     (pa[0], pa[1], pa[2]))

@@ -43,7 +43,7 @@ from .laws.plastic import plastic_return
 from .laws.rupture import (MIXED, SOFTENING, STRAIN, equivalent_strain, mixed_mode_damage,
                            softening_damage)
 from .springs import (add_wrench, clear_part, flush_a, gap_and_scaled_frame, material_points,
-                      mid_increment, scaled_frame, serial_pass)
+                      mid_increment, scaled_frame)
 
 JIT = dict(cache=True, nogil=True, fastmath=False, error_model="numpy")
 
@@ -281,71 +281,124 @@ def _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
     flush_a(cur, w0, w1, w2, w3, w4, w5, body_wrench)
 
 @nb.njit(parallel=True, **JIT)
-def _inelastic_phase(lo, hi, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
-                     spring_slot, face_frame0, face_k, spring_area, face_h, face_law, law_params,
-                     body_pos, body_rot, body_dq, body_wrench, body_support,
-                     spring_state, spring_dp, spring_kappa, spring_dmg, spring_wp, spring_wf,
-                     store, spring_force, parts, substep):
+def _inelastic_phase(lo, hi, parts, springs, bs, hist, store, substep):
+    """Groups lo..hi of one phase in parallel (they share no body)."""
+    # the fields into locals before the prange (physics/arrays.py)
+    group_ptr = springs.group_ptr
+    spring_bodies = springs.spring_bodies
+    spring_arm_a = springs.spring_arm_a
+    spring_arm_b = springs.spring_arm_b
+    spring_slot = springs.spring_slot
+    face_frame0 = springs.face_frame0
+    face_k = springs.face_k
+    spring_area = springs.spring_area
+    face_h = springs.face_h
+    face_law = springs.face_law
+    law_params = springs.law_params
+    body_pos = bs.body_pos
+    body_rot = bs.body_rot
+    body_dq = bs.body_dq
+    body_wrench = bs.body_wrench
+    body_support = bs.body_support
+    spring_force = bs.spring_force
+    spring_state = hist.spring_state
+    spring_dp = hist.spring_dp
+    spring_kappa = hist.spring_kappa
+    spring_dmg = hist.spring_dmg
+    spring_wp = hist.spring_wp
+    spring_wf = hist.spring_wf
     for g in nb.prange(lo, hi):
         if g < parts:
             clear_part(g, parts, body_wrench, body_support)
-        _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spring_slot, face_frame0, face_k, spring_area, face_h, face_law, law_params, body_pos,
-                         body_rot, body_dq, body_wrench, body_support, spring_state, spring_dp,
-                         spring_kappa, spring_dmg, spring_wp, spring_wf, store, spring_force,
-                         substep)
+        _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spring_slot,
+                         face_frame0, face_k, spring_area, face_h, face_law, law_params,
+                         body_pos, body_rot, body_dq, body_wrench, body_support, spring_state,
+                         spring_dp, spring_kappa, spring_dmg, spring_wp, spring_wf, store,
+                         spring_force, substep)
 
 
 @nb.njit(**JIT)
-def _inelastic_phase_serial(lo, hi, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
-                            spring_slot, face_frame0, face_k, spring_area, face_h, face_law, law_params,
-                            body_pos, body_rot, body_dq, body_wrench, body_support,
-                            spring_state, spring_dp, spring_kappa, spring_dmg, spring_wp,
-                            spring_wf,
-                            store, spring_force, parts, substep):
-    for g in range(lo, hi):
+def _inelastic_serial(springs, bs, hist, store, substep):
+    """Every group in order, one thread (small models)."""
+    group_ptr = springs.group_ptr
+    spring_bodies = springs.spring_bodies
+    spring_arm_a = springs.spring_arm_a
+    spring_arm_b = springs.spring_arm_b
+    spring_slot = springs.spring_slot
+    face_frame0 = springs.face_frame0
+    face_k = springs.face_k
+    spring_area = springs.spring_area
+    face_h = springs.face_h
+    face_law = springs.face_law
+    law_params = springs.law_params
+    body_pos = bs.body_pos
+    body_rot = bs.body_rot
+    body_dq = bs.body_dq
+    body_wrench = bs.body_wrench
+    body_support = bs.body_support
+    spring_force = bs.spring_force
+    spring_state = hist.spring_state
+    spring_dp = hist.spring_dp
+    spring_kappa = hist.spring_kappa
+    spring_dmg = hist.spring_dmg
+    spring_wp = hist.spring_wp
+    spring_wf = hist.spring_wf
+    phase_ptr = springs.phase_ptr
+    parts = phase_ptr[1]
+    for g in range(0, phase_ptr[phase_ptr.shape[0] - 1]):
         if g < parts:
             clear_part(g, parts, body_wrench, body_support)
-        _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spring_slot, face_frame0, face_k, spring_area, face_h, face_law, law_params, body_pos,
-                         body_rot, body_dq, body_wrench, body_support, spring_state, spring_dp,
-                         spring_kappa, spring_dmg, spring_wp, spring_wf, store, spring_force,
+        _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spring_slot,
+                         face_frame0, face_k, spring_area, face_h, face_law, law_params,
+                         body_pos, body_rot, body_dq, body_wrench, body_support, spring_state,
+                         spring_dp, spring_kappa, spring_dmg, spring_wp, spring_wf, store,
+                         spring_force, substep)
+
+
+@nb.njit(**JIT)
+def inelastic_spring_pass(springs, bs, hist, store, substep, parallel):
+    """Forces of elastic–plastic, rupturing and contact springs (see module),
+    summed into the bodies' wrenches in the schedule of partition.py, with
+    the spring history `hist` (arrays.SpringHistory) updated;
+    `store`: also write each spring's force (output steps); `substep`: the
+    explicit step's share of a strain-law spring breaking inside the step.
+    Phase 0's groups first zero their parts' accumulators
+    (springs.clear_part).  `parallel` None: one thread in group order."""
+    if parallel is None:
+        _inelastic_serial(springs, bs, hist, store, substep)
+        return
+    phase_ptr = springs.phase_ptr
+    parts = phase_ptr[1]
+    for ph in range(phase_ptr.shape[0] - 1):
+        _inelastic_phase(phase_ptr[ph], phase_ptr[ph + 1], parts, springs, bs, hist, store,
                          substep)
 
 
 @nb.njit(**JIT)
-def inelastic_spring_pass(phase_ptr, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
-                          spring_slot, face_frame0, face_k, spring_area, face_h, face_law,
-                          law_params, body_pos, body_rot, body_dq, body_wrench, body_support,
-                          spring_state, spring_dp, spring_kappa, spring_dmg,
-                          spring_wp, spring_wf, store, spring_force, substep=False):
-    """Forces of elastic–plastic, rupturing and contact springs (see module),
-    summed into the bodies' wrenches in the schedule of partition.py;
-    `store`: also write each spring's force (output steps).  Phase 0's
-    groups first zero their parts' accumulators (springs.clear_part)."""
-    parts = phase_ptr[1]
-    if serial_pass(spring_bodies.shape[0]):
-        _inelastic_phase_serial(0, phase_ptr[phase_ptr.shape[0] - 1], group_ptr, spring_bodies,
-                                spring_arm_a, spring_arm_b, spring_slot, face_frame0, face_k, spring_area, face_h, face_law, law_params, body_pos, body_rot, body_dq,
-                                body_wrench, body_support, spring_state, spring_dp, spring_kappa,
-                                spring_dmg, spring_wp, spring_wf, store, spring_force, parts,
-                                substep)
-        return
-    for ph in range(phase_ptr.shape[0] - 1):
-        _inelastic_phase(phase_ptr[ph], phase_ptr[ph + 1], group_ptr, spring_bodies,
-                         spring_arm_a, spring_arm_b, spring_slot, face_frame0, face_k, spring_area, face_h, face_law, law_params, body_pos, body_rot, body_dq,
-                         body_wrench, body_support, spring_state, spring_dp, spring_kappa,
-                         spring_dmg, spring_wp, spring_wf, store, spring_force, parts,
-                                substep)
-
-
-@nb.njit(**JIT)
-def strain_energy(spring_bodies, spring_arm_a, spring_arm_b, spring_slot, face_frame0, face_k,
-                  spring_area, body_pos, body_rot, body_dq, inelastic, spring_state, spring_dp,
-                  spring_dmg):
+def strain_energy(springs, bs, hist):
     """Elastic energy held by the springs [J] at the current positions
     (output steps; one serial pass, no (S, 3) temporaries): ½ Σ k δ² for
-    linear springs; with `inelastic`, ½ k (δ − δp)² with damage on tension
-    and shear for intact springs, the closed contact's ½ kn δn² + ½ ks
-    (δτ − slip)² for broken ones (δ the local gap, springs.spring_local_gap)."""
+    linear springs (hist None); with the history `hist`, ½ k (δ − δp)² with
+    damage on tension and shear for intact springs, the closed contact's
+    ½ kn δn² + ½ ks (δτ − slip)² for broken ones (δ the local gap,
+    springs.spring_local_gap)."""
+    spring_bodies = springs.spring_bodies
+    spring_arm_a = springs.spring_arm_a
+    spring_arm_b = springs.spring_arm_b
+    spring_slot = springs.spring_slot
+    face_frame0 = springs.face_frame0
+    face_k = springs.face_k
+    spring_area = springs.spring_area
+    body_pos = bs.body_pos
+    body_rot = bs.body_rot
+    body_dq = bs.body_dq
+    if hist is None:
+        return 0.5 * _elastic_energy(spring_bodies, spring_arm_a, spring_arm_b, spring_slot,
+                                     face_frame0, face_k, spring_area, body_pos, body_rot,
+                                     body_dq)
+    spring_state = hist.spring_state
+    spring_dp = hist.spring_dp
+    spring_dmg = hist.spring_dmg
     u = 0.0
     for s in range(spring_bodies.shape[0]):
         (d0, d1, d2, la0, la1, la2, lb0, lb1, lb2,
@@ -361,9 +414,6 @@ def strain_energy(spring_bodies, spring_arm_a, spring_arm_b, spring_slot, face_f
         kn = face_k[f, 0] * area
         ks = face_k[f, 1] * area
         kt = face_k[f, 2] * area
-        if not inelastic:
-            u += kn * dn * dn + ks * ds * ds + kt * dt * dt
-            continue
         state = spring_state[s]
         en = dn - spring_dp[s, 0]
         es = ds - spring_dp[s, 1]
@@ -376,3 +426,26 @@ def strain_energy(spring_bodies, spring_arm_a, spring_arm_b, spring_slot, face_f
             dc = min(dn, 0.0)
             u += kn * dc * dc + ks * es * es + kt * et * et
     return 0.5 * u
+
+
+@nb.njit(inline="always", **JIT)
+def _elastic_energy(spring_bodies, spring_arm_a, spring_arm_b, spring_slot, face_frame0, face_k,
+                    spring_area, body_pos, body_rot, body_dq):
+    """Σ k δ² of linear springs (twice their energy, strain_energy)."""
+    u = 0.0
+    for s in range(spring_bodies.shape[0]):
+        (d0, d1, d2, la0, la1, la2, lb0, lb1, lb2,
+         G00, G01, G02, G10, G11, G12, G20, G21, G22, n2) = gap_and_scaled_frame(
+            s, spring_bodies, spring_arm_a, spring_arm_b, spring_slot, face_frame0,
+            body_pos, body_rot, body_dq)
+        c = 1.0 / n2
+        dn = c * (G00 * d0 + G10 * d1 + G20 * d2)
+        ds = c * (G01 * d0 + G11 * d1 + G21 * d2)
+        dt = c * (G02 * d0 + G12 * d1 + G22 * d2)
+        f = spring_slot[s]
+        area = spring_area[s]
+        kn = face_k[f, 0] * area
+        ks = face_k[f, 1] * area
+        kt = face_k[f, 2] * area
+        u += kn * dn * dn + ks * ds * ds + kt * dt * dt
+    return u

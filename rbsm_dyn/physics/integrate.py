@@ -29,10 +29,10 @@ load gives a free body over the step: F_n · v_{n+1/2} dt would book
 import numba as nb
 
 from .rotation import dlm_free_rotor, quat_mul, quat_to_matrix
+from .arrays import flag
 from .collide import contact_step
-from .inelastic import inelastic_spring_pass
-from .poisson import poisson_pass
-from .springs import elastic_spring_pass, part_range
+from .passes import spring_forces
+from .springs import part_range
 from ..partition import PARTS
 
 JIT = dict(cache=True, nogil=True, fastmath={"contract"}, error_model="numpy")
@@ -118,9 +118,12 @@ def refresh_rotation(i, body_quat, body_quat0, body_rot, body_dq):
     body_dq[i, 3] = z
 
 
-@nb.njit(parallel=True, **JIT)
+@nb.njit(**JIT)
 def refresh_all_rotations(n, body_quat, body_quat0, body_rot, body_dq):
-    for i in nb.prange(n):
+    """refresh_rotation of bodies 0..n−1 (a new state, an increment of a
+    static solver: not every step; one thread, no parallel variant to
+    compile)."""
+    for i in range(n):
         refresh_rotation(i, body_quat, body_quat0, body_rot, body_dq)
 
 
@@ -139,24 +142,141 @@ def rotate_body(i, dt, inertia, body_quat, body_angmom, body_rot):
                    inertia, dt)
 
 
-@nb.njit(parallel=True, **JIT)
-def dynamic_body_pass(t, dt, body_wrench, body_support,
-                      body_mass, body_inertia, body_pos, body_pos0, body_quat, body_quat0,
-                      body_vel, body_angmom, body_rot, body_dq,
-                      body_fext, body_mext, body_ffol, body_mfol, body_load_hist, gravity,
-                      damping_alpha, damping_local, dof_kind, dof_value, dof_hist, hist_ptr,
-                      hist_t, hist_a, body_work, body_damp, body_reaction):
-    """One leapfrog step of every body, from forces at time t to t + dt.
+@nb.njit(inline="always", **JIT)
+def _translate(i, t, dt, keep, dt_c, damping_alpha, damping_local, follow, local, amp, R,
+               body_wrench, body_support, body_mass, body_pos, body_pos0, body_vel,
+               body_fext, body_ffol, gravity, dof_kind, dof_value, dof_hist, hist_ptr, hist_t,
+               hist_a, body_reaction):
+    """Kick and drift of body i's translations (dynamic_body_pass).
+    Returns the work of loads and constraints and the damping dissipation
+    of the step [J]."""
+    g = body_wrench[i]
+    m = body_mass[i]
+    dt_cm = dt_c / m
+    work = 0.0
+    damp = 0.0
+    for k in range(3):
+        fext = amp * body_fext[i, k] + m * gravity[k]
+        ffol = 0.0
+        if follow:
+            ffol = amp * (R[k, 0] * body_ffol[i, 0] + R[k, 1] * body_ffol[i, 1]
+                          + R[k, 2] * body_ffol[i, 2])
+        f = g[k] + fext + ffol
+        v_old = body_vel[i, k]
+        kind = dof_kind[i, k]
+        fd = 0.0
+        if kind == FREE:
+            if local:
+                # local damping: −β|f| sign(v) (v at t − dt/2)
+                fd = -damping_local * abs(f) * ((v_old > 0.0) - (v_old < 0.0))
+            # mass-proportional damping, central difference (c = α dt / 2):
+            # v' = ((1 − c) v + dt f/m) / (1 + c)
+            v_new = keep * v_old + dt_cm * (f + fd)
+            reaction = body_support[i, k]
+        else:
+            if kind == FIXED:
+                v_new = 0.0
+            elif kind == VELOCITY:
+                v_new = dof_value[i, k] * amplitude(dof_hist[i, k], t + 0.5 * dt,
+                                                    hist_ptr, hist_t, hist_a)
+            else:
+                target = body_pos0[i, k] + dof_value[i, k] * amplitude(
+                    dof_hist[i, k], t + dt, hist_ptr, hist_t, hist_a)
+                v_new = (target - body_pos[i, k]) / dt
+            # force the constraint adds so that m a = f + r
+            r = m * (v_new - v_old) / dt - f
+            reaction = body_support[i, k] + r
+            work += r * v_new * dt
+        va = 0.5 * (v_old + v_new)
+        work += fext * v_new * dt + ffol * va * dt
+        damp += damping_alpha * m * va * va * dt - fd * va * dt
+        body_vel[i, k] = v_new
+        body_pos[i, k] += v_new * dt
+        body_reaction[i, k] = reaction
+    return work, damp
 
-    Accumulates per body the work of external loads and constraints
-    (`body_work` [J]) and the energy dissipated by damping (`body_damp`
-    [J]): mass-proportional (`damping_alpha` [1/s]) and Cundall's local
-    non-viscous damping (`damping_local` = β: each free force and moment
-    component f gets −β|f| sign(v), v its velocity at t − dt/2; Cundall
-    1987, Itasca PFC "local damping"; it vanishes where the body does not
-    accelerate, so steady loading is not dragged and supports are not
-    loaded); `body_reaction` gets the force of supports and constraints on
-    the body at time t [N]."""
+
+@nb.njit(inline="always", **JIT)
+def _rotate(i, dt, keep, dt_c, damping_alpha, damping_local, follow, local, amp, R, work, damp,
+            body_wrench, body_inertia, body_angmom, body_mext, body_mfol, dof_kind, body_quat,
+            body_quat0, body_rot, body_dq, body_work, body_damp):
+    """Kick of body i's world angular momentum, constraints, free rotor
+    (dynamic_body_pass); adds the step's work and damping dissipation (the
+    running sums `work`, `damp` of _translate) to body_work, body_damp."""
+    g = body_wrench[i]
+    L = body_angmom[i]
+    inertia = body_inertia[i]
+    l0, l1, l2 = L[0], L[1], L[2]          # L at t − dt/2
+    w0 = 0.0
+    w1 = 0.0
+    w2 = 0.0
+    td0 = 0.0
+    td1 = 0.0
+    td2 = 0.0
+    if local:
+        # world ω = R I⁻¹ Rᵀ L at t − dt/2, for the sign of local damping
+        b0 = (R[0, 0] * l0 + R[1, 0] * l1 + R[2, 0] * l2) / inertia[0]
+        b1 = (R[0, 1] * l0 + R[1, 1] * l1 + R[2, 1] * l2) / inertia[1]
+        b2 = (R[0, 2] * l0 + R[1, 2] * l1 + R[2, 2] * l2) / inertia[2]
+        w0 = R[0, 0] * b0 + R[0, 1] * b1 + R[0, 2] * b2
+        w1 = R[1, 0] * b0 + R[1, 1] * b1 + R[1, 2] * b2
+        w2 = R[2, 0] * b0 + R[2, 1] * b1 + R[2, 2] * b2
+    for k in range(3):
+        mext = amp * body_mext[i, k]
+        if follow:
+            mext += amp * (R[k, 0] * body_mfol[i, 0] + R[k, 1] * body_mfol[i, 1]
+                           + R[k, 2] * body_mfol[i, 2])
+        torque = g[3 + k] + mext
+        if local:
+            wk = w0 if k == 0 else (w1 if k == 1 else w2)
+            td = -damping_local * abs(torque) * ((wk > 0.0) - (wk < 0.0))
+            torque += td
+            if k == 0:
+                td0 = td
+            elif k == 1:
+                td1 = td
+            else:
+                td2 = td
+        l_old = L[k]
+        L[k] = keep * l_old + dt_c * torque       # ((1 − c) L + dt T)/(1 + c)
+    constrain_rotation(i, dof_kind, R, inertia, L)
+    if local:
+        # dissipated: −T_d·ω over the kick, ω averaged over it (exact for
+        # the kinetic energy ½ Lᵀ R I⁻¹ Rᵀ L at fixed R)
+        b0 = (R[0, 0] * L[0] + R[1, 0] * L[1] + R[2, 0] * L[2]) / inertia[0]
+        b1 = (R[0, 1] * L[0] + R[1, 1] * L[1] + R[2, 1] * L[2]) / inertia[1]
+        b2 = (R[0, 2] * L[0] + R[1, 2] * L[1] + R[2, 2] * L[2]) / inertia[2]
+        v0 = R[0, 0] * b0 + R[0, 1] * b1 + R[0, 2] * b2
+        v1 = R[1, 0] * b0 + R[1, 1] * b1 + R[1, 2] * b2
+        v2 = R[2, 0] * b0 + R[2, 1] * b1 + R[2, 2] * b2
+        damp -= 0.5 * dt * (td0 * (w0 + v0) + td1 * (w1 + v1) + td2 * (w2 + v2))
+    if damping_alpha > 0.0 or amp != 0.0:
+        # ω at the half step, for damping dissipation and moment work
+        # (world M·ω = M·R ω_b; a follower moment: m_b·ω_b)
+        for k in range(3):
+            lb = R[0, k] * L[0] + R[1, k] * L[1] + R[2, k] * L[2]
+            wb = lb / inertia[k]
+            damp += damping_alpha * lb * wb * dt
+            for r in range(3):
+                work += amp * body_mext[i, r] * R[r, k] * wb * dt
+            if follow:
+                wb_old = (R[0, k] * l0 + R[1, k] * l1 + R[2, k] * l2) / inertia[k]
+                work += amp * body_mfol[i, k] * 0.5 * (wb_old + wb) * dt
+    rotate_body(i, dt, inertia, body_quat, body_angmom, body_rot)
+    refresh_rotation(i, body_quat, body_quat0, body_rot, body_dq)
+    body_work[i] += work
+    body_damp[i] += damp
+
+
+@nb.njit(parallel=True, **JIT)
+def _dynamic_bodies_parallel(t, stepping, bodies, loads, bs):
+    # the fields into locals before the loop (physics/arrays.py)
+    dt, damping_alpha, damping_local = stepping
+    body_mass, body_inertia, body_pos0, body_quat0 = bodies
+    (body_fext, body_mext, body_ffol, body_mfol, body_load_hist, gravity, dof_kind, dof_value,
+     dof_hist, hist_ptr, hist_t, hist_a) = loads
+    (body_pos, body_quat, body_vel, body_angmom, body_rot, body_dq, body_wrench, body_support,
+     body_work, body_damp, body_reaction, spring_force) = bs
     n = body_mass.shape[0]
     c = 0.5 * damping_alpha * dt
     # (1 − c)/(1 + c) and dt/(1 + c): divisions out of the loop
@@ -169,175 +289,106 @@ def dynamic_body_pass(t, dt, body_wrench, body_support,
     for p in nb.prange(PARTS):
         i0, i1 = part_range(p, PARTS, n)
         for i in range(i0, i1):
-            g = body_wrench[i]
-            m = body_mass[i]
-            dt_cm = dt_c / m
             amp = amplitude(body_load_hist[i], t, hist_ptr, hist_t, hist_a)
             R = body_rot[i]                      # at t, as the spring forces
-            work = 0.0
-            damp = 0.0
-            for k in range(3):
-                fext = amp * body_fext[i, k] + m * gravity[k]
-                ffol = 0.0
-                if follow:
-                    ffol = amp * (R[k, 0] * body_ffol[i, 0] + R[k, 1] * body_ffol[i, 1]
-                                  + R[k, 2] * body_ffol[i, 2])
-                f = g[k] + fext + ffol
-                v_old = body_vel[i, k]
-                kind = dof_kind[i, k]
-                fd = 0.0
-                if kind == FREE:
-                    if local:
-                        # local damping: −β|f| sign(v) (v at t − dt/2)
-                        fd = -damping_local * abs(f) * ((v_old > 0.0) - (v_old < 0.0))
-                    # mass-proportional damping, central difference (c = α dt / 2):
-                    # v' = ((1 − c) v + dt f/m) / (1 + c)
-                    v_new = keep * v_old + dt_cm * (f + fd)
-                    reaction = body_support[i, k]
-                else:
-                    if kind == FIXED:
-                        v_new = 0.0
-                    elif kind == VELOCITY:
-                        v_new = dof_value[i, k] * amplitude(dof_hist[i, k], t + 0.5 * dt,
-                                                            hist_ptr, hist_t, hist_a)
-                    else:
-                        target = body_pos0[i, k] + dof_value[i, k] * amplitude(
-                            dof_hist[i, k], t + dt, hist_ptr, hist_t, hist_a)
-                        v_new = (target - body_pos[i, k]) / dt
-                    # force the constraint adds so that m a = f + r
-                    r = m * (v_new - v_old) / dt - f
-                    reaction = body_support[i, k] + r
-                    work += r * v_new * dt
-                va = 0.5 * (v_old + v_new)
-                work += fext * v_new * dt + ffol * va * dt
-                damp += damping_alpha * m * va * va * dt - fd * va * dt
-                body_vel[i, k] = v_new
-                body_pos[i, k] += v_new * dt
-                body_reaction[i, k] = reaction
-            # rotation: kick world L, constrain, free rotor
-            L = body_angmom[i]
-            inertia = body_inertia[i]
-            l0, l1, l2 = L[0], L[1], L[2]          # L at t − dt/2
-            w0 = 0.0
-            w1 = 0.0
-            w2 = 0.0
-            td0 = 0.0
-            td1 = 0.0
-            td2 = 0.0
-            if local:
-                # world ω = R I⁻¹ Rᵀ L at t − dt/2, for the sign of local damping
-                b0 = (R[0, 0] * l0 + R[1, 0] * l1 + R[2, 0] * l2) / inertia[0]
-                b1 = (R[0, 1] * l0 + R[1, 1] * l1 + R[2, 1] * l2) / inertia[1]
-                b2 = (R[0, 2] * l0 + R[1, 2] * l1 + R[2, 2] * l2) / inertia[2]
-                w0 = R[0, 0] * b0 + R[0, 1] * b1 + R[0, 2] * b2
-                w1 = R[1, 0] * b0 + R[1, 1] * b1 + R[1, 2] * b2
-                w2 = R[2, 0] * b0 + R[2, 1] * b1 + R[2, 2] * b2
-            for k in range(3):
-                mext = amp * body_mext[i, k]
-                if follow:
-                    mext += amp * (R[k, 0] * body_mfol[i, 0] + R[k, 1] * body_mfol[i, 1]
-                                   + R[k, 2] * body_mfol[i, 2])
-                torque = g[3 + k] + mext
-                if local:
-                    wk = w0 if k == 0 else (w1 if k == 1 else w2)
-                    td = -damping_local * abs(torque) * ((wk > 0.0) - (wk < 0.0))
-                    torque += td
-                    if k == 0:
-                        td0 = td
-                    elif k == 1:
-                        td1 = td
-                    else:
-                        td2 = td
-                l_old = L[k]
-                L[k] = keep * l_old + dt_c * torque       # ((1 − c) L + dt T)/(1 + c)
-            constrain_rotation(i, dof_kind, R, inertia, L)
-            if local:
-                # dissipated: −T_d·ω over the kick, ω averaged over it (exact for
-                # the kinetic energy ½ Lᵀ R I⁻¹ Rᵀ L at fixed R)
-                b0 = (R[0, 0] * L[0] + R[1, 0] * L[1] + R[2, 0] * L[2]) / inertia[0]
-                b1 = (R[0, 1] * L[0] + R[1, 1] * L[1] + R[2, 1] * L[2]) / inertia[1]
-                b2 = (R[0, 2] * L[0] + R[1, 2] * L[1] + R[2, 2] * L[2]) / inertia[2]
-                v0 = R[0, 0] * b0 + R[0, 1] * b1 + R[0, 2] * b2
-                v1 = R[1, 0] * b0 + R[1, 1] * b1 + R[1, 2] * b2
-                v2 = R[2, 0] * b0 + R[2, 1] * b1 + R[2, 2] * b2
-                damp -= 0.5 * dt * (td0 * (w0 + v0) + td1 * (w1 + v1) + td2 * (w2 + v2))
-            if damping_alpha > 0.0 or amp != 0.0:
-                # ω at the half step, for damping dissipation and moment work
-                # (world M·ω = M·R ω_b; a follower moment: m_b·ω_b)
-                for k in range(3):
-                    lb = R[0, k] * L[0] + R[1, k] * L[1] + R[2, k] * L[2]
-                    wb = lb / inertia[k]
-                    damp += damping_alpha * lb * wb * dt
-                    for r in range(3):
-                        work += amp * body_mext[i, r] * R[r, k] * wb * dt
-                    if follow:
-                        wb_old = (R[0, k] * l0 + R[1, k] * l1 + R[2, k] * l2) / inertia[k]
-                        work += amp * body_mfol[i, k] * 0.5 * (wb_old + wb) * dt
-            rotate_body(i, dt, inertia, body_quat, body_angmom, body_rot)
-            refresh_rotation(i, body_quat, body_quat0, body_rot, body_dq)
-            body_work[i] += work
-            body_damp[i] += damp
+            work, damp = _translate(i, t, dt, keep, dt_c, damping_alpha, damping_local, follow,
+                                    local, amp, R, body_wrench, body_support, body_mass,
+                                    body_pos, body_pos0, body_vel, body_fext, body_ffol,
+                                    gravity, dof_kind, dof_value, dof_hist, hist_ptr, hist_t,
+                                    hist_a, body_reaction)
+            _rotate(i, dt, keep, dt_c, damping_alpha, damping_local, follow, local, amp, R,
+                    work, damp, body_wrench, body_inertia, body_angmom, body_mext, body_mfol,
+                    dof_kind, body_quat, body_quat0, body_rot, body_dq, body_work, body_damp)
 
 
 @nb.njit(**JIT)
-def run_dynamic(n_steps, step0, dt, inelastic,
-                spring_bodies, spring_arm_a, spring_arm_b, spring_slot, face_frame0, face_k, spring_area, face_h, face_law, law_params,
-                spring_state, spring_dp, spring_kappa, spring_dmg, spring_wp, spring_wf,
-                phase_ptr, group_ptr, body_wrench, body_support, spring_force,
-                body_mass, body_inertia, body_pos, body_pos0, body_quat, body_quat0,
-                body_vel, body_angmom, body_rot, body_dq,
-                body_fext, body_mext, body_ffol, body_mfol, body_load_hist, gravity,
-                damping_alpha, damping_local, dof_kind, dof_value, dof_hist, hist_ptr, hist_t,
-                hist_a, body_work, body_damp, body_reaction, poisson_on,
-                cell_slot_ptr, slot_cell, slot_rev, slot_g, cell_c0, slot_s0, slot_s1,
-                cell_lv, aux_g, aux_p, contact_on, contact_overwrite, contact_args):
-    """Advance n_steps explicit steps inside compiled code.  Step order:
-    springs at x_n (summed into the body wrenches) → auxiliary stress of
-    the Poisson correction if `poisson_on` (physics/poisson.py, added to
-    the same wrenches) → contact forces if `contact_on` (physics/collide.py,
-    contact_args: contact_model.ContactState.args; `contact_overwrite`:
-    a model without springs, whose wrenches no spring pass clears) →
-    bodies kick, drift.
-    The spring kernel is the elastic one unless `inelastic` (yield,
-    rupture, contact: physics/inelastic.py, with the per-spring history
-    arrays; empty otherwise)."""
+def _dynamic_bodies_serial(t, stepping, bodies, loads, bs):
+    # the fields into locals before the loop (physics/arrays.py)
+    dt, damping_alpha, damping_local = stepping
+    body_mass, body_inertia, body_pos0, body_quat0 = bodies
+    (body_fext, body_mext, body_ffol, body_mfol, body_load_hist, gravity, dof_kind, dof_value,
+     dof_hist, hist_ptr, hist_t, hist_a) = loads
+    (body_pos, body_quat, body_vel, body_angmom, body_rot, body_dq, body_wrench, body_support,
+     body_work, body_damp, body_reaction, spring_force) = bs
+    n = body_mass.shape[0]
+    c = 0.5 * damping_alpha * dt
+    # (1 − c)/(1 + c) and dt/(1 + c): divisions out of the loop
+    keep = (1.0 - c) / (1.0 + c)
+    dt_c = dt / (1.0 + c)
+    follow = body_ffol.shape[0] > 0
+    local = damping_local > 0.0
+    for i in range(n):
+        amp = amplitude(body_load_hist[i], t, hist_ptr, hist_t, hist_a)
+        R = body_rot[i]                      # at t, as the spring forces
+        work, damp = _translate(i, t, dt, keep, dt_c, damping_alpha, damping_local, follow,
+                                local, amp, R, body_wrench, body_support, body_mass,
+                                body_pos, body_pos0, body_vel, body_fext, body_ffol,
+                                gravity, dof_kind, dof_value, dof_hist, hist_ptr, hist_t,
+                                hist_a, body_reaction)
+        _rotate(i, dt, keep, dt_c, damping_alpha, damping_local, follow, local, amp, R,
+                work, damp, body_wrench, body_inertia, body_angmom, body_mext, body_mfol,
+                dof_kind, body_quat, body_quat0, body_rot, body_dq, body_work, body_damp)
+
+
+@nb.njit(**JIT)
+def dynamic_body_pass(t, stepping, bodies, loads, bs, parallel):
+    """One leapfrog step of every body, from forces at time t to t + dt
+    (stepping: arrays.Stepping; bodies, loads: the Model's; bs: the
+    BodyState).  `parallel` None: one thread (the same numbers).
+
+    Accumulates per body the work of external loads and constraints
+    (`body_work` [J]) and the energy dissipated by damping (`body_damp`
+    [J]): mass-proportional (`damping_alpha` [1/s]) and Cundall's local
+    non-viscous damping (`damping_local` = β: each free force and moment
+    component f gets −β|f| sign(v), v its velocity at t − dt/2; Cundall
+    1987, Itasca PFC "local damping"; it vanishes where the body does not
+    accelerate, so steady loading is not dragged and supports are not
+    loaded); `body_reaction` gets the force of supports and constraints on
+    the body at time t [N]."""
+    if parallel is None:
+        _dynamic_bodies_serial(t, stepping, bodies, loads, bs)
+    else:
+        _dynamic_bodies_parallel(t, stepping, bodies, loads, bs)
+
+
+@nb.njit(**JIT)
+def run_dynamic(n_steps, step0, stepping, bodies, springs, loads, bs, hist, aux, contact,
+                parallel):
+    """Advance n_steps explicit steps inside compiled code; returns the
+    step count after them.  The step is this list of passes, each chosen
+    once per run (solvers/passes.py Options; a container that is None
+    prunes its pass before typing, so a scene pays, and compiles, only for
+    what it uses):
+
+        springs      forces at x_n of every spring point, summed into the
+                     body wrenches: elastic (hist None) or inelastic with
+                     the spring history hist (yield, rupture, contact)
+        aux stress   the Poisson correction (aux: PoissonSlots, or None)
+        contact      contact between any cells (contact: ContactArrays, or
+                     None; contact.overwrite: no springs clear the wrenches)
+        bodies       kick v, L with the forces at t_n, drift x, rotate q
+
+    `parallel` None: every pass on one thread (small models)."""
+    no = flag(False)
+    yes = flag(True)
     for k in range(n_steps):
-        t = (step0 + k) * dt
-        if inelastic:
-            inelastic_spring_pass(phase_ptr, group_ptr, spring_bodies, spring_arm_a,
-                                  spring_arm_b, spring_slot, face_frame0, face_k, spring_area, face_h, face_law, law_params, body_pos, body_rot, body_dq,
-                                  body_wrench, body_support, spring_state, spring_dp,
-                                  spring_kappa, spring_dmg, spring_wp, spring_wf, False,
-                                  spring_force, True)
-        else:
-            elastic_spring_pass(phase_ptr, group_ptr, spring_bodies, spring_arm_a,
-                                spring_arm_b, spring_slot, face_frame0, face_k, spring_area, body_pos,
-                                body_rot, body_dq, body_wrench, body_support, False, spring_force)
-        if poisson_on:
-            poisson_pass(inelastic, cell_slot_ptr, slot_cell, slot_rev, slot_g, cell_c0,
-                         slot_s0, slot_s1, cell_lv, spring_state, spring_dmg, body_pos,
-                         body_rot, aux_g, aux_p, body_wrench)
-        if contact_on:
-            contact_step(dt, body_pos, body_rot, body_vel, body_angmom, body_inertia,
-                         body_mass, body_wrench, body_damp, contact_overwrite, True,
-                         *contact_args)
-        dynamic_body_pass(t, dt, body_wrench, body_support,
-                          body_mass, body_inertia, body_pos, body_pos0, body_quat,
-                          body_quat0, body_vel, body_angmom, body_rot, body_dq,
-                          body_fext, body_mext, body_ffol, body_mfol, body_load_hist, gravity,
-                          damping_alpha, damping_local, dof_kind, dof_value, dof_hist,
-                          hist_ptr, hist_t, hist_a, body_work, body_damp, body_reaction)
+        t = (step0 + k) * stepping.dt
+        spring_forces(springs, bs, hist, aux, no, yes, parallel)
+        if contact is not None:
+            contact_step(contact, bodies, bs, stepping.dt, yes)
+        dynamic_body_pass(t, stepping, bodies, loads, bs, parallel)
     return step0 + n_steps
 
 
 @nb.njit(parallel=True, **JIT)
-def synchronized_momenta(t, dt, body_wrench, body_support, body_mass, body_vel,
-                         body_angmom, body_rot, body_fext, body_mext, body_ffol, body_mfol,
-                         body_load_hist, gravity, dof_kind, dof_value, dof_hist, hist_ptr,
-                         hist_t, hist_a, out_vel, out_angmom, out_reaction):
-    """Velocity and world angular momentum at the whole step t (half kick
-    from t − dt/2 with the forces at t; output steps only), and the force
-    of supports and constraints on each body at t."""
+def _synchronized_parallel(t, dt, bodies, loads, bs, out):
+    # the fields into locals before the loop (physics/arrays.py)
+    body_mass, body_inertia, body_pos0, body_quat0 = bodies
+    (body_fext, body_mext, body_ffol, body_mfol, body_load_hist, gravity, dof_kind, dof_value,
+     dof_hist, hist_ptr, hist_t, hist_a) = loads
+    (body_pos, body_quat, body_vel, body_angmom, body_rot, body_dq, body_wrench, body_support,
+     body_work, body_damp, body_reaction, spring_force) = bs
+    out_vel, out_angmom, out_reaction = out
     follow = body_ffol.shape[0] > 0
     for i in nb.prange(body_mass.shape[0]):
         g = body_wrench[i]
@@ -369,3 +420,57 @@ def synchronized_momenta(t, dt, body_wrench, body_support, body_mass, body_vel,
             fixed_rot = dof_kind[i, 3 + k] == FIXED
             out_angmom[i, k] = 0.0 if fixed_rot else (
                 body_angmom[i, k] + 0.5 * dt * (g[3 + k] + mext))
+
+
+@nb.njit(**JIT)
+def _synchronized_serial(t, dt, bodies, loads, bs, out):
+    # the fields into locals before the loop (physics/arrays.py)
+    body_mass, body_inertia, body_pos0, body_quat0 = bodies
+    (body_fext, body_mext, body_ffol, body_mfol, body_load_hist, gravity, dof_kind, dof_value,
+     dof_hist, hist_ptr, hist_t, hist_a) = loads
+    (body_pos, body_quat, body_vel, body_angmom, body_rot, body_dq, body_wrench, body_support,
+     body_work, body_damp, body_reaction, spring_force) = bs
+    out_vel, out_angmom, out_reaction = out
+    follow = body_ffol.shape[0] > 0
+    for i in range(body_mass.shape[0]):
+        g = body_wrench[i]
+        sup = body_support[i]
+        m = body_mass[i]
+        R = body_rot[i]
+        amp = amplitude(body_load_hist[i], t, hist_ptr, hist_t, hist_a)
+        for k in range(3):
+            f = g[k] + amp * body_fext[i, k] + m * gravity[k]
+            mext = amp * body_mext[i, k]
+            if follow:
+                f += amp * (R[k, 0] * body_ffol[i, 0] + R[k, 1] * body_ffol[i, 1]
+                            + R[k, 2] * body_ffol[i, 2])
+                mext += amp * (R[k, 0] * body_mfol[i, 0] + R[k, 1] * body_mfol[i, 1]
+                               + R[k, 2] * body_mfol[i, 2])
+            kind = dof_kind[i, k]
+            if kind == FREE:
+                out_vel[i, k] = body_vel[i, k] + 0.5 * dt * f / m
+                out_reaction[i, k] = sup[k]
+            else:
+                if kind == FIXED:
+                    v = 0.0
+                elif kind == VELOCITY:
+                    v = dof_value[i, k] * amplitude(dof_hist[i, k], t, hist_ptr, hist_t, hist_a)
+                else:
+                    v = body_vel[i, k]
+                out_vel[i, k] = v
+                out_reaction[i, k] = sup[k] - f
+            fixed_rot = dof_kind[i, 3 + k] == FIXED
+            out_angmom[i, k] = 0.0 if fixed_rot else (
+                body_angmom[i, k] + 0.5 * dt * (g[3 + k] + mext))
+
+
+@nb.njit(**JIT)
+def synchronized_momenta(t, dt, bodies, loads, bs, out, parallel):
+    """Velocity and world angular momentum at the whole step t (half kick
+    from t − dt/2 with the forces at t; output steps only), and the force
+    of supports and constraints on each body at t, into out = (out_vel,
+    out_angmom, out_reaction) (N, 3) each.  `parallel` None: one thread."""
+    if parallel is None:
+        _synchronized_serial(t, dt, bodies, loads, bs, out)
+    else:
+        _synchronized_parallel(t, dt, bodies, loads, bs, out)

@@ -124,6 +124,7 @@ import numba as nb
 import numpy as np
 import scipy.sparse as sp
 
+from .arrays import PoissonSlots, flag
 from .laws import BROKEN
 
 JIT = dict(cache=True, nogil=True, fastmath={"contract"}, error_model="numpy")
@@ -134,10 +135,6 @@ PoissonArrays = namedtuple("PoissonArrays", "cell_slot_ptr slot_cell slot_rev sl
 
 # relative eigenvalue cutoff of the least-squares fit (build_poisson)
 RCOND = 0.2
-
-# below this many slots the two loops run serially (parallel regions cost more
-# than the work; same order of sums, so the same result: physics/springs.py)
-SERIAL_SLOTS = 4096
 
 
 def empty_poisson(n_bodies):
@@ -321,8 +318,19 @@ def _body_wrench(i, cell_slot_ptr, slot_cell, slot_rev, aux_g, aux_p, body_wrenc
 
 
 @nb.njit(parallel=True, **JIT)
-def _pressures_parallel(damaged, cell_slot_ptr, slot_cell, slot_g, cell_c0, slot_s0, slot_s1,
-                        cell_lv, spring_state, spring_dmg, body_pos, body_rot, aux_g, aux_p):
+def _pressures_parallel(aux, bs, spring_state, spring_dmg, damaged):
+    # the fields into locals before the prange (physics/arrays.py)
+    cell_slot_ptr = aux.cell_slot_ptr
+    slot_cell = aux.slot_cell
+    slot_g = aux.slot_g
+    cell_c0 = aux.cell_c0
+    slot_s0 = aux.slot_s0
+    slot_s1 = aux.slot_s1
+    cell_lv = aux.cell_lv
+    aux_g = aux.aux_g
+    aux_p = aux.aux_p
+    body_pos = bs.body_pos
+    body_rot = bs.body_rot
     for c in nb.prange(cell_lv.shape[0]):
         th, chi = _cell_pressure(c, damaged, cell_slot_ptr, slot_cell, slot_g, cell_c0,
                                  slot_s0, slot_s1, spring_state, spring_dmg,
@@ -331,42 +339,82 @@ def _pressures_parallel(damaged, cell_slot_ptr, slot_cell, slot_g, cell_c0, slot
 
 
 @nb.njit(parallel=True, **JIT)
-def _wrenches_parallel(cell_slot_ptr, slot_cell, slot_rev, aux_g, aux_p, body_wrench):
+def _wrenches_parallel(aux, bs):
+    cell_slot_ptr = aux.cell_slot_ptr
+    slot_cell = aux.slot_cell
+    slot_rev = aux.slot_rev
+    aux_g = aux.aux_g
+    aux_p = aux.aux_p
+    body_wrench = bs.body_wrench
     for i in nb.prange(aux_p.shape[1]):
         _body_wrench(i, cell_slot_ptr, slot_cell, slot_rev, aux_g, aux_p, body_wrench)
 
 
 @nb.njit(**JIT)
-def poisson_pass(damaged, cell_slot_ptr, slot_cell, slot_rev, slot_g, cell_c0, slot_s0,
-                 slot_s1, cell_lv, spring_state, spring_dmg, body_pos, body_rot, aux_g, aux_p,
-                 body_wrench):
-    """Add the auxiliary-stress wrenches (module docstring) to body_wrench.
-    `damaged`: scale each cell's term by χ_c from spring_state and
-    spring_dmg (inelastic models; otherwise those may be empty).
+def _poisson_serial(aux, bs, spring_state, spring_dmg, damaged):
+    cell_slot_ptr = aux.cell_slot_ptr
+    slot_cell = aux.slot_cell
+    slot_rev = aux.slot_rev
+    slot_g = aux.slot_g
+    cell_c0 = aux.cell_c0
+    slot_s0 = aux.slot_s0
+    slot_s1 = aux.slot_s1
+    cell_lv = aux.cell_lv
+    aux_g = aux.aux_g
+    aux_p = aux.aux_p
+    body_pos = bs.body_pos
+    body_rot = bs.body_rot
+    body_wrench = bs.body_wrench
+    n = cell_lv.shape[0]
+    for c in range(n):
+        th, chi = _cell_pressure(c, damaged, cell_slot_ptr, slot_cell, slot_g, cell_c0,
+                                 slot_s0, slot_s1, spring_state, spring_dmg,
+                                 body_pos, body_rot, aux_g, aux_p, True)
+        aux_p[0, c] = cell_lv[c] * chi * th
+    for i in range(n):
+        _body_wrench(i, cell_slot_ptr, slot_cell, slot_rev, aux_g, aux_p, body_wrench)
+
+
+@nb.njit(**JIT)
+def poisson_pass(aux, bs, hist, parallel):
+    """Add the auxiliary-stress wrenches (module docstring) to the bodies'
+    wrenches (aux: arrays.PoissonSlots, bs: arrays.BodyState).  With the
+    spring history `hist` (inelastic models; None otherwise) each cell's
+    term is scaled by χ_c from its springs' state and damage.  `parallel`
+    None: one thread (small models; the same sums, solvers/passes.py).
     Scratch: aux_g (n_slots, 3) [1/m], aux_p (7, N): p_c [N m], Σ_j G_cj
     [1/m], Σ_j G_cj × Δx_cj [1]."""
-    n = cell_lv.shape[0]
-    if slot_cell.shape[0] < SERIAL_SLOTS:
-        for c in range(n):
-            th, chi = _cell_pressure(c, damaged, cell_slot_ptr, slot_cell, slot_g, cell_c0,
-                                     slot_s0, slot_s1, spring_state, spring_dmg,
-                                     body_pos, body_rot, aux_g, aux_p, True)
-            aux_p[0, c] = cell_lv[c] * chi * th
-        for i in range(n):
-            _body_wrench(i, cell_slot_ptr, slot_cell, slot_rev, aux_g, aux_p, body_wrench)
+    if hist is None:
+        # nothing read: the loops skip spring_state, spring_dmg when not damaged
+        no = flag(False)
+        if parallel is None:
+            _poisson_serial(aux, bs, aux.slot_s0, aux.cell_lv, no)
+        else:
+            _pressures_parallel(aux, bs, aux.slot_s0, aux.cell_lv, no)
+            _wrenches_parallel(aux, bs)
         return
-    _pressures_parallel(damaged, cell_slot_ptr, slot_cell, slot_g, cell_c0, slot_s0, slot_s1,
-                        cell_lv, spring_state, spring_dmg, body_pos, body_rot, aux_g, aux_p)
-    _wrenches_parallel(cell_slot_ptr, slot_cell, slot_rev, aux_g, aux_p, body_wrench)
+    yes = flag(True)
+    if parallel is None:
+        _poisson_serial(aux, bs, hist.spring_state, hist.spring_dmg, yes)
+    else:
+        _pressures_parallel(aux, bs, hist.spring_state, hist.spring_dmg, yes)
+        _wrenches_parallel(aux, bs)
 
 
 @nb.njit(parallel=True, **JIT)
-def _theta_chi(damaged, cell_slot_ptr, slot_cell, slot_g, cell_c0, slot_s0, slot_s1,
-               spring_state, spring_dmg, body_pos, body_rot, aux_g, out_theta, out_chi):
+def _theta_chi(pa, body_pos, body_rot, spring_state, spring_dmg, damaged, scratch, out_theta,
+               out_chi):
+    """θ_c, χ_c of every cell (pa: PoissonArrays)."""
+    cell_slot_ptr = pa.cell_slot_ptr
+    slot_cell = pa.slot_cell
+    slot_g = pa.slot_g
+    cell_c0 = pa.cell_c0
+    slot_s0 = pa.slot_s0
+    slot_s1 = pa.slot_s1
     for c in nb.prange(out_theta.shape[0]):
         th, chi = _cell_pressure(c, damaged, cell_slot_ptr, slot_cell, slot_g, cell_c0,
                                  slot_s0, slot_s1, spring_state, spring_dmg,
-                                 body_pos, body_rot, aux_g, aux_g, False)
+                                 body_pos, body_rot, scratch, scratch, False)
         out_theta[c] = th
         out_chi[c] = chi
 
@@ -378,9 +426,8 @@ def cell_dilatation(aux, body_pos, body_rot, spring_state=None, spring_dmg=None)
     st = spring_state if damaged else np.zeros(0, dtype=np.int8)
     dm = spring_dmg if damaged else np.zeros(0)
     theta, chi = np.empty(n), np.empty(n)
-    _theta_chi(damaged, aux.cell_slot_ptr, aux.slot_cell, aux.slot_g, aux.cell_c0,
-               aux.slot_s0, aux.slot_s1, st, dm, body_pos, body_rot,
-               np.empty((len(aux.slot_cell), 3)), theta, chi)
+    _theta_chi(aux, body_pos, body_rot, st, dm, damaged, np.empty((len(aux.slot_cell), 3)),
+               theta, chi)
     return theta, chi
 
 
@@ -427,9 +474,8 @@ def poisson_abs_product(aux, n_bodies, x):
     return (B.T @ (aux.cell_lv * (B @ x.reshape(-1)))).reshape(n_bodies, 6)
 
 
-def poisson_args(model, state):
-    """The arguments of poisson_pass after `damaged` for a model and state
-    (Python side: run_dynamic, run_relax, output passes)."""
-    a = model.poisson
-    return (a.cell_slot_ptr, a.slot_cell, a.slot_rev, a.slot_g, a.cell_c0, a.slot_s0,
-            a.slot_s1, a.cell_lv, state.aux_g, state.aux_p)
+def poisson_slots(pa, aux_g, aux_p):
+    """The pass's container (arrays.PoissonSlots) of a model's PoissonArrays
+    and a state's scratch."""
+    return PoissonSlots(pa.cell_slot_ptr, pa.slot_cell, pa.slot_rev, pa.slot_g, pa.cell_c0,
+                        pa.slot_s0, pa.slot_s1, pa.cell_lv, aux_g, aux_p)

@@ -22,9 +22,8 @@ import numba as nb
 
 from .integrate import DISPLACEMENT, FIXED, FREE, refresh_rotation
 from .rotation import quat_mul
-from .inelastic import inelastic_spring_pass
-from .poisson import poisson_pass
-from .springs import elastic_spring_pass
+from .arrays import flag
+from .passes import spring_forces
 
 JIT = dict(cache=True, nogil=True, fastmath=False, error_model="numpy")
 
@@ -52,14 +51,131 @@ def _rayleigh(u, v_prev, f, f_prev, m, reset):
     return u * u * (f_prev - f) / v_prev, m * u * u
 
 
+@nb.njit(inline="always", **JIT)
+def _relax_translate(i, lam, kind, beta, c, reset, body_wrench, body_support, body_mass_real,
+                     fict_mass, body_pos, body_pos0, body_vel, body_fext, gravity, dof_kind,
+                     dof_value, body_reaction, body_rprev):
+    """Body i's translations over one unit step (relax_body_pass); returns
+    its running (residual, Rayleigh numerator, denominator)."""
+    g = body_wrench[i]
+    sup = body_support[i]
+    m = fict_mass[i]
+    res = 0.0
+    num = 0.0
+    den = 0.0
+    for k in range(3):
+        f = g[k] + lam * (body_fext[i, k] + body_mass_real[i] * gravity[k])
+        dk = dof_kind[i, k]
+        if dk == FREE:
+            res += f * f
+            v = body_vel[i, k]
+            a, b = _rayleigh(body_pos[i, k] - body_pos0[i, k], v, f, body_rprev[i, k],
+                             m, reset)
+            num += a
+            den += b
+            body_rprev[i, k] = f
+            v = _damped(v, f, m, kind, beta, c)
+            body_vel[i, k] = v
+            body_pos[i, k] += v
+            body_reaction[i, k] = sup[k]
+        else:
+            body_reaction[i, k] = sup[k] - f
+            body_vel[i, k] = 0.0
+            if dk == DISPLACEMENT:
+                body_pos[i, k] = body_pos0[i, k] + lam * dof_value[i, k]
+    return res, num, den
+
+
+@nb.njit(inline="always", **JIT)
+def _relax_rotate(i, lam, kind, beta, c, reset, res, num, den, body_wrench, body_mext,
+                  fict_inertia, dof_kind, arm_length, body_angmom, body_theta, body_rprev,
+                  body_quat, body_quat0, body_rot, body_dq, body_resid, body_num, body_den):
+    """Body i's rotations over one unit step (relax_body_pass), with the
+    running sums of _relax_translate."""
+    g = body_wrench[i]
+    inertia = fict_inertia[i]
+    for k in range(3):
+        if dof_kind[i, 3 + k] == FIXED:
+            body_angmom[i, k] = 0.0
+            continue
+        t = g[3 + k] + lam * body_mext[i, k]
+        res += (t / arm_length) ** 2
+        L = body_angmom[i, k]
+        a, b = _rayleigh(body_theta[i, k], L / inertia, t, body_rprev[i, 3 + k],
+                         inertia, reset)
+        num += a
+        den += b
+        body_rprev[i, 3 + k] = t
+        body_angmom[i, k] = _damped(L, t, 1.0, kind, beta, c)
+    w0 = body_angmom[i, 0] / inertia
+    w1 = body_angmom[i, 1] / inertia
+    w2 = body_angmom[i, 2] / inertia
+    body_theta[i, 0] += w0
+    body_theta[i, 1] += w1
+    body_theta[i, 2] += w2
+    ang = math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
+    if ang > 0.0:
+        # exact rotation by ω·1 about the world axis ω/|ω|: q <- exp(ω/2) ⊗ q
+        s = math.sin(0.5 * ang) / ang
+        q = body_quat[i]
+        a, b, cc, d = quat_mul(math.cos(0.5 * ang), w0 * s, w1 * s, w2 * s,
+                               q[0], q[1], q[2], q[3])
+        n = math.sqrt(a * a + b * b + cc * cc + d * d)
+        q[0] = a / n
+        q[1] = b / n
+        q[2] = cc / n
+        q[3] = d / n
+        refresh_rotation(i, body_quat, body_quat0, body_rot, body_dq)
+    body_resid[i] = res
+    body_num[i] = num
+    body_den[i] = den
+
+
 @nb.njit(parallel=True, **JIT)
-def relax_body_pass(lam, kind, beta, c, reset, body_wrench, body_support, body_mass_real,
-                    fict_mass,
-                    fict_inertia, body_pos, body_pos0, body_quat, body_quat0, body_vel,
-                    body_angmom, body_rot, body_dq, body_fext, body_mext, gravity,
-                    dof_kind, dof_value, arm_length, body_resid, body_reaction,
-                    body_theta, body_rprev, body_num, body_den):
-    """One unit step of damped fictitious dynamics at load factor lam.
+def _relax_bodies_parallel(lam, c, reset, bodies, loads, bs, relax):
+    # the fields into locals before the prange (physics/arrays.py)
+    body_mass_real, body_inertia, body_pos0, body_quat0 = bodies
+    (body_fext, body_mext, body_ffol, body_mfol, body_load_hist, gravity, dof_kind, dof_value,
+     dof_hist, hist_ptr, hist_t, hist_a) = loads
+    (body_pos, body_quat, body_vel, body_angmom, body_rot, body_dq, body_wrench, body_support,
+     body_work, body_damp, body_reaction, spring_force) = bs
+    (fict_mass, fict_inertia, arm_length, kind, beta, body_resid, body_theta, body_rprev,
+     body_num, body_den) = relax
+    for i in nb.prange(fict_mass.shape[0]):
+        res, num, den = _relax_translate(i, lam, kind, beta, c, reset, body_wrench,
+                                         body_support, body_mass_real, fict_mass, body_pos,
+                                         body_pos0, body_vel, body_fext, gravity, dof_kind,
+                                         dof_value, body_reaction, body_rprev)
+        _relax_rotate(i, lam, kind, beta, c, reset, res, num, den, body_wrench, body_mext,
+                      fict_inertia, dof_kind, arm_length, body_angmom, body_theta, body_rprev,
+                      body_quat, body_quat0, body_rot, body_dq, body_resid, body_num, body_den)
+
+
+@nb.njit(**JIT)
+def _relax_bodies_serial(lam, c, reset, bodies, loads, bs, relax):
+    body_mass_real, body_inertia, body_pos0, body_quat0 = bodies
+    (body_fext, body_mext, body_ffol, body_mfol, body_load_hist, gravity, dof_kind, dof_value,
+     dof_hist, hist_ptr, hist_t, hist_a) = loads
+    (body_pos, body_quat, body_vel, body_angmom, body_rot, body_dq, body_wrench, body_support,
+     body_work, body_damp, body_reaction, spring_force) = bs
+    (fict_mass, fict_inertia, arm_length, kind, beta, body_resid, body_theta, body_rprev,
+     body_num, body_den) = relax
+    for i in range(fict_mass.shape[0]):
+        res, num, den = _relax_translate(i, lam, kind, beta, c, reset, body_wrench,
+                                         body_support, body_mass_real, fict_mass, body_pos,
+                                         body_pos0, body_vel, body_fext, gravity, dof_kind,
+                                         dof_value, body_reaction, body_rprev)
+        _relax_rotate(i, lam, kind, beta, c, reset, res, num, den, body_wrench, body_mext,
+                      fict_inertia, dof_kind, arm_length, body_angmom, body_theta, body_rprev,
+                      body_quat, body_quat0, body_rot, body_dq, body_resid, body_num, body_den)
+
+
+@nb.njit(**JIT)
+def relax_body_pass(lam, c, reset, bodies, loads, bs, relax, parallel):
+    """One unit step of damped fictitious dynamics at load factor lam
+    (bodies, loads: the Model's, body_mass the real masses for gravity;
+    relax: arrays.Relaxation, the fictitious masses and the iteration's
+    arrays).  `parallel` None: one thread (the same numbers).
 
     body_resid[i] gets |unbalanced force|² + |unbalanced moment/arm_length|²
     over the free components; body_reaction the support/constraint force.
@@ -67,108 +183,32 @@ def relax_body_pass(lam, kind, beta, c, reset, body_wrench, body_support, body_m
     body_rprev (N, 6): unbalanced force of the previous iteration (`reset`:
     a new load step, no estimate this iteration); body_num, body_den (N,):
     this body's part of the Rayleigh quotient."""
-    for i in nb.prange(fict_mass.shape[0]):
-        g = body_wrench[i]
-        sup = body_support[i]
-        m = fict_mass[i]
-        res = 0.0
-        num = 0.0
-        den = 0.0
-        for k in range(3):
-            f = g[k] + lam * (body_fext[i, k] + body_mass_real[i] * gravity[k])
-            dk = dof_kind[i, k]
-            if dk == FREE:
-                res += f * f
-                v = body_vel[i, k]
-                a, b = _rayleigh(body_pos[i, k] - body_pos0[i, k], v, f, body_rprev[i, k],
-                                 m, reset)
-                num += a
-                den += b
-                body_rprev[i, k] = f
-                v = _damped(v, f, m, kind, beta, c)
-                body_vel[i, k] = v
-                body_pos[i, k] += v
-                body_reaction[i, k] = sup[k]
-            else:
-                body_reaction[i, k] = sup[k] - f
-                body_vel[i, k] = 0.0
-                if dk == DISPLACEMENT:
-                    body_pos[i, k] = body_pos0[i, k] + lam * dof_value[i, k]
-        inertia = fict_inertia[i]
-        for k in range(3):
-            if dof_kind[i, 3 + k] == FIXED:
-                body_angmom[i, k] = 0.0
-                continue
-            t = g[3 + k] + lam * body_mext[i, k]
-            res += (t / arm_length) ** 2
-            L = body_angmom[i, k]
-            a, b = _rayleigh(body_theta[i, k], L / inertia, t, body_rprev[i, 3 + k],
-                             inertia, reset)
-            num += a
-            den += b
-            body_rprev[i, 3 + k] = t
-            body_angmom[i, k] = _damped(L, t, 1.0, kind, beta, c)
-        w0 = body_angmom[i, 0] / inertia
-        w1 = body_angmom[i, 1] / inertia
-        w2 = body_angmom[i, 2] / inertia
-        body_theta[i, 0] += w0
-        body_theta[i, 1] += w1
-        body_theta[i, 2] += w2
-        ang = math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
-        if ang > 0.0:
-            # exact rotation by ω·1 about the world axis ω/|ω|: q <- exp(ω/2) ⊗ q
-            s = math.sin(0.5 * ang) / ang
-            q = body_quat[i]
-            a, b, cc, d = quat_mul(math.cos(0.5 * ang), w0 * s, w1 * s, w2 * s,
-                                   q[0], q[1], q[2], q[3])
-            n = math.sqrt(a * a + b * b + cc * cc + d * d)
-            q[0] = a / n
-            q[1] = b / n
-            q[2] = cc / n
-            q[3] = d / n
-            refresh_rotation(i, body_quat, body_quat0, body_rot, body_dq)
-        body_resid[i] = res
-        body_num[i] = num
-        body_den[i] = den
+    if parallel is None:
+        _relax_bodies_serial(lam, c, reset, bodies, loads, bs, relax)
+    else:
+        _relax_bodies_parallel(lam, c, reset, bodies, loads, bs, relax)
 
 
 @nb.njit(**JIT)
-def run_relax(n_iter, lam, kind, beta, c, reset,
-              spring_bodies, spring_arm_a, spring_arm_b, spring_slot, face_frame0, face_k, inelastic, spring_area, face_h, face_law, law_params,
-              spring_state, spring_dp, spring_kappa, spring_dmg, spring_wp, spring_wf,
-              phase_ptr, group_ptr, body_wrench, body_support, spring_force,
-              body_mass_real, fict_mass, fict_inertia, body_pos, body_pos0, body_quat,
-              body_quat0, body_vel, body_angmom, body_rot, body_dq, body_fext, body_mext,
-              gravity, dof_kind, dof_value, arm_length, body_resid, body_reaction,
-              body_theta, body_rprev, body_num, body_den, poisson_on,
-              cell_slot_ptr, slot_cell, slot_rev, slot_g, cell_c0, slot_s0, slot_s1,
-              cell_lv, aux_g, aux_p):
-    """n_iter relaxation steps inside compiled code (springs, then the
-    auxiliary stress of the Poisson correction if `poisson_on`, then
-    bodies).  `reset` starts a load step (no quotient from its first
-    iteration).  Returns (kinetic energy of the fictitious motion after the
-    last step, the damping coefficient c to continue with)."""
+def run_relax(n_iter, lam, c, reset, bodies, springs, loads, bs, hist, aux, relax, parallel):
+    """n_iter relaxation steps inside compiled code: the force passes of
+    the explicit step (physics/passes.py: springs, then the auxiliary stress
+    if `aux`), then the relaxation's body pass.  `reset` starts a load step
+    (no quotient from its first iteration).  Returns (kinetic energy of the
+    fictitious motion after the last step, the damping coefficient c to
+    continue with)."""
+    kind = relax.kind
+    body_num = relax.body_num
+    body_den = relax.body_den
+    fict_mass = relax.fict_mass
+    fict_inertia = relax.fict_inertia
+    body_vel = bs.body_vel
+    body_angmom = bs.body_angmom
+    no = flag(False)
     for it in range(n_iter):
         first = reset and it == 0
-        if inelastic:
-            inelastic_spring_pass(phase_ptr, group_ptr, spring_bodies, spring_arm_a,
-                                  spring_arm_b, spring_slot, face_frame0, face_k, spring_area, face_h, face_law, law_params, body_pos, body_rot, body_dq,
-                                  body_wrench, body_support, spring_state, spring_dp,
-                                  spring_kappa, spring_dmg, spring_wp, spring_wf, False,
-                                  spring_force)
-        else:
-            elastic_spring_pass(phase_ptr, group_ptr, spring_bodies, spring_arm_a,
-                                spring_arm_b, spring_slot, face_frame0, face_k, spring_area, body_pos,
-                                body_rot, body_dq, body_wrench, body_support, False, spring_force)
-        if poisson_on:
-            poisson_pass(inelastic, cell_slot_ptr, slot_cell, slot_rev, slot_g, cell_c0,
-                         slot_s0, slot_s1, cell_lv, spring_state, spring_dmg, body_pos,
-                         body_rot, aux_g, aux_p, body_wrench)
-        relax_body_pass(lam, kind, beta, c, first, body_wrench, body_support, body_mass_real,
-                        fict_mass, fict_inertia, body_pos, body_pos0, body_quat, body_quat0,
-                        body_vel, body_angmom, body_rot, body_dq, body_fext, body_mext,
-                        gravity, dof_kind, dof_value, arm_length, body_resid, body_reaction,
-                        body_theta, body_rprev, body_num, body_den)
+        spring_forces(springs, bs, hist, aux, no, no, parallel)
+        relax_body_pass(lam, c, first, bodies, loads, bs, relax, parallel)
         if kind == ADAPTIVE:
             # Underwood's quotient -> ω_min², c = 2 ω_min
             # (Underwood 1983); serial sum so that any thread count agrees

@@ -172,17 +172,10 @@ def add_wrench(s, a, cur, w0, w1, w2, w3, w4, w5, f0, f1, f2, la0, la1, la2, lb0
     return cur, w0, w1, w2, w3, w4, w5
 
 
-# below this many springs a spring pass runs its phases serially: the same
-# order of sums (so the same result), without the parallel regions' launch
-# cost, which is larger than the work on small models.  (The thread count is
-# not asked here: nb.get_num_threads() in a kernel stops Numba caching it.)
+# below this many springs the passes run on one thread: the same order of
+# sums (so the same result), without the parallel regions' launch cost,
+# which is larger than the work on small models (solvers/passes.py Options)
 SERIAL_SPRINGS = 4096
-
-
-@nb.njit(inline="always", **JIT)
-def serial_pass(n_springs):
-    """True when a spring pass should skip the parallel regions."""
-    return n_springs < SERIAL_SPRINGS
 
 
 @nb.njit(inline="always", **JIT)
@@ -283,54 +276,87 @@ def _elastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
 
 
 @nb.njit(parallel=True, **JIT)
-def _elastic_phase(lo, hi, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
-                   spring_slot, face_frame0, face_k, spring_area, body_pos, body_rot, body_dq, body_wrench,
-                   body_support, store, spring_force, parts):
+def _elastic_phase(lo, hi, parts, springs, bs, store):
+    """Groups lo..hi of one phase in parallel (they share no body)."""
+    # the fields into locals before the prange (physics/arrays.py)
+    group_ptr = springs.group_ptr
+    spring_bodies = springs.spring_bodies
+    spring_arm_a = springs.spring_arm_a
+    spring_arm_b = springs.spring_arm_b
+    spring_slot = springs.spring_slot
+    face_frame0 = springs.face_frame0
+    face_k = springs.face_k
+    spring_area = springs.spring_area
+    body_pos = bs.body_pos
+    body_rot = bs.body_rot
+    body_dq = bs.body_dq
+    body_wrench = bs.body_wrench
+    body_support = bs.body_support
+    spring_force = bs.spring_force
     for g in nb.prange(lo, hi):
         if g < parts:
             clear_part(g, parts, body_wrench, body_support)
-        _elastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spring_slot, face_frame0, face_k, spring_area, body_pos, body_rot, body_dq, body_wrench, body_support,
-                       store, spring_force)
+        _elastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spring_slot,
+                       face_frame0, face_k, spring_area, body_pos, body_rot, body_dq,
+                       body_wrench, body_support, store, spring_force)
 
 
 @nb.njit(**JIT)
-def _elastic_phase_serial(lo, hi, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
-                          spring_slot, face_frame0, face_k, spring_area, body_pos, body_rot, body_dq,
-                          body_wrench,
-                          body_support, store, spring_force, parts):
-    for g in range(lo, hi):
+def _elastic_serial(springs, bs, store):
+    """Every group in order, one thread (small models: SERIAL_SPRINGS)."""
+    group_ptr = springs.group_ptr
+    spring_bodies = springs.spring_bodies
+    spring_arm_a = springs.spring_arm_a
+    spring_arm_b = springs.spring_arm_b
+    spring_slot = springs.spring_slot
+    face_frame0 = springs.face_frame0
+    face_k = springs.face_k
+    spring_area = springs.spring_area
+    body_pos = bs.body_pos
+    body_rot = bs.body_rot
+    body_dq = bs.body_dq
+    body_wrench = bs.body_wrench
+    body_support = bs.body_support
+    spring_force = bs.spring_force
+    phase_ptr = springs.phase_ptr
+    parts = phase_ptr[1]
+    for g in range(0, phase_ptr[phase_ptr.shape[0] - 1]):
         if g < parts:
             clear_part(g, parts, body_wrench, body_support)
-        _elastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spring_slot, face_frame0, face_k, spring_area, body_pos, body_rot, body_dq, body_wrench, body_support,
-                       store, spring_force)
+        _elastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spring_slot,
+                       face_frame0, face_k, spring_area, body_pos, body_rot, body_dq,
+                       body_wrench, body_support, store, spring_force)
 
 
 @nb.njit(**JIT)
-def elastic_spring_pass(phase_ptr, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
-                        spring_slot, face_frame0, face_k, spring_area, body_pos, body_rot, body_dq,
-                        body_wrench, body_support, store, spring_force):
+def elastic_spring_pass(springs, bs, store, parallel):
     """Linear-elastic springs: force on body a, f = F diag(k) Fᵀ d [N]
     (Kawai 1978, eq. 13 form) with the spring frame F turned by the mid
-    rotation, summed into the bodies' wrenches; `store`: also write each
-    spring's force (output steps).  Phase 0's groups first zero their
-    parts' accumulators (clear_part)."""
-    parts = phase_ptr[1]
-    if serial_pass(spring_bodies.shape[0]):
-        _elastic_phase_serial(0, phase_ptr[phase_ptr.shape[0] - 1], group_ptr, spring_bodies,
-                              spring_arm_a, spring_arm_b, spring_slot, face_frame0, face_k, spring_area,
-                              body_pos, body_rot, body_dq, body_wrench, body_support, store,
-                              spring_force, parts)
+    rotation, summed into the bodies' wrenches (bs: arrays.BodyState);
+    `store`: also write each spring's force (output steps).  Phase 0's
+    groups first zero their parts' accumulators (clear_part).  `parallel`
+    None: one thread in group order (the same sums, so the same result:
+    chosen for small models, solvers/passes.py); else phase by phase."""
+    if parallel is None:
+        _elastic_serial(springs, bs, store)
         return
+    phase_ptr = springs.phase_ptr
+    parts = phase_ptr[1]
     for ph in range(phase_ptr.shape[0] - 1):
-        _elastic_phase(phase_ptr[ph], phase_ptr[ph + 1], group_ptr, spring_bodies,
-                       spring_arm_a, spring_arm_b, spring_slot, face_frame0, face_k, spring_area, body_pos,
-                       body_rot, body_dq, body_wrench, body_support, store, spring_force, parts)
+        _elastic_phase(phase_ptr[ph], phase_ptr[ph + 1], parts, springs, bs, store)
 
 
 @nb.njit(parallel=True, **JIT)
-def spring_local_gap(spring_bodies, spring_arm_a, spring_arm_b, spring_slot, face_frame0,
-                     body_pos, body_rot, body_dq, out_delta):
+def spring_local_gap(springs, bs, out_delta):
     """Local gap δ = (δn, δs, δt) of every spring [m] (output steps only)."""
+    spring_bodies = springs.spring_bodies
+    spring_arm_a = springs.spring_arm_a
+    spring_arm_b = springs.spring_arm_b
+    spring_slot = springs.spring_slot
+    face_frame0 = springs.face_frame0
+    body_pos = bs.body_pos
+    body_rot = bs.body_rot
+    body_dq = bs.body_dq
     for s in nb.prange(spring_bodies.shape[0]):
         (d0, d1, d2, la0, la1, la2, lb0, lb1, lb2,
          G00, G01, G02, G10, G11, G12, G20, G21, G22, n2) = gap_and_scaled_frame(

@@ -17,6 +17,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..physics.rotation import quat_matrix_np
+from .passes import model_arrays
 
 
 class BlockPattern:
@@ -63,8 +64,7 @@ class BlockPattern:
             T = np.zeros((len(k), 3, 3))
             T[:, [0, 1, 2], [0, 1, 2]] = k
             k = T
-        _assemble(model.spring_bodies, model.spring_arm_a, model.spring_arm_b, rot, F, k,
-                  self.slots, data)
+        _assemble(model_arrays(model)[1], rot, F, k, self.slots, data)
         if force is not None:
             sb = model.spring_bodies
             r_a = np.einsum("sij,sj->si", rot[sb[:, 0]], model.spring_arm_a)
@@ -125,7 +125,12 @@ def _spring_blocks(arm_a, arm_b, Ra, Rb, C, G, CG, out):
 
 
 @nb.njit(cache=True)
-def _assemble(spring_bodies, arm_a, arm_b, rot, frames, k, slots, data):
+def _assemble(springs, rot, frames, k, slots, data):
+    """Add Σ B_sᵀ C_s B_s of every spring (springs: physics/arrays.Springs,
+    the Model's, as the explicit passes read it) into the BSR blocks."""
+    spring_bodies = springs.spring_bodies
+    arm_a = springs.spring_arm_a
+    arm_b = springs.spring_arm_b
     n = rot.shape[0] - 1
     G = np.zeros((2, 3, 6))
     C = np.zeros((3, 3))
@@ -147,19 +152,23 @@ def _assemble(spring_bodies, arm_a, arm_b, rot, frames, k, slots, data):
 
 
 @nb.njit(cache=True)
-def assemble_triplets(springs, spring_bodies, arm_a, arm_b, rot, frames, k, rows, cols, vals):
+def assemble_triplets(listed, springs, rot, frames, k, rows, cols, vals):
     """COO triplets (global DOF row, column, value) of Σ B_sᵀ C_s B_s over
     the listed springs, 144 per spring (rows, cols, vals of length
-    144 len(springs); the ground's blocks get row −1); k (len(springs), 3, 3)
-    the springs' local stiffnesses, frames (S, 3, 3) world matrices."""
+    144 len(listed); the ground's blocks get row −1); k (len(listed), 3, 3)
+    the springs' local stiffnesses, frames (S, 3, 3) world matrices
+    (springs: physics/arrays.Springs)."""
+    spring_bodies = springs.spring_bodies
+    arm_a = springs.spring_arm_a
+    arm_b = springs.spring_arm_b
     n = rot.shape[0] - 1
     G = np.zeros((2, 3, 6))
     C = np.zeros((3, 3))
     CG = np.zeros((2, 3, 6))
     blocks = np.zeros((4, 6, 6))
     p = 0
-    for t in range(springs.shape[0]):
-        s = springs[t]
+    for t in range(listed.shape[0]):
+        s = listed[t]
         a = spring_bodies[s, 0]
         b = spring_bodies[s, 1]
         _world(frames[s], k[t], C)

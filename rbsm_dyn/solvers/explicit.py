@@ -26,17 +26,15 @@ import numpy as np
 from ..model import apply_initial, new_state
 from ..contact_model import chunk_steps as contact_chunk
 from ..contact_model import rebuild, stiffness_check
-from ..physics.collide import N_OUT, contact_step
+from ..physics.arrays import Stepping
+from ..physics.collide import contact_step
 from ..physics.integrate import run_dynamic, synchronized_momenta
-from ..physics.inelastic import inelastic_spring_pass
-from ..physics.poisson import poisson_args, poisson_pass
-from ..physics.springs import elastic_spring_pass
+from ..physics.passes import spring_forces
 from ..case import DT_SAFETY_MAX
 from .checkpoint import Checkpointer, Interrupted, SignalGuard
+from .passes import (Options, aux_stress, body_state, contact_arrays, history, model_arrays,
+                     parallel_arg)
 
-#: State attributes of the inelastic spring history, in the kernel's order
-SPRING_HISTORY = ("spring_state", "spring_dp", "spring_kappa", "spring_dmg", "spring_wp",
-                  "spring_wf")
 
 
 # Energy runaway at an output step: K + U + W_plastic + W_fracture + W_damping
@@ -75,33 +73,19 @@ def spring_pass(model, state, substep=False):
     forces of the explicit time step (a strain-law spring breaking inside
     the step keeps a share of its force, physics/inelastic.py)."""
     m = model
-    trial = None
-    if m.inelastic:
-        trial = {k: getattr(state, k).copy() for k in SPRING_HISTORY}
-        inelastic_spring_pass(m.phase_ptr, m.group_ptr, m.spring_bodies, m.spring_arm_a,
-                              m.spring_arm_b, m.spring_slot, m.face_frame0, m.face_k, m.spring_area, m.face_h, m.face_law, m.law_params, state.body_pos,
-                              state.body_rot, state.body_dq, state.body_wrench,
-                              state.body_support, *trial.values(), True, state.spring_force,
-                              substep)
-    else:
-        elastic_spring_pass(m.phase_ptr, m.group_ptr, m.spring_bodies, m.spring_arm_a,
-                            m.spring_arm_b, m.spring_slot, m.face_frame0, m.face_k, m.spring_area,
-                            state.body_pos,
-                            state.body_rot, state.body_dq, state.body_wrench,
-                            state.body_support, True, state.spring_force)
-    if m.poisson_on:
-        poisson_pass(m.inelastic, *poisson_args(m, state)[:8], state.spring_state,
-                     state.spring_dmg, state.body_pos, state.body_rot, state.aux_g,
-                     state.aux_p, state.body_wrench)
+    opt = Options.of(m)
+    bodies, springs, loads = model_arrays(m)
+    bs = body_state(state)
+    hist = history(state, opt, copy=True)
+    spring_forces(springs, bs, hist, aux_stress(m, state, opt), True, substep,
+                  parallel_arg(opt))
+    trial = None if hist is None else hist._asdict()
     if m.contact is not None:
         # on a copy of the slip memory: repeating it at an output step
         # changes nothing (the step from here commits); the copy, with the
         # pairs' forces and energies at these positions, is returned
         cs = state.contact.trial()
-        on, over, args = _contact_args(m, state, cs)
-        contact_step(state.dt, state.body_pos, state.body_rot, state.body_vel,
-                     state.body_angmom, m.body_inertia, m.body_mass, state.body_wrench,
-                     state.body_damp, over, False, *args)
+        contact_step(contact_arrays(m, cs), bodies, bs, state.dt, False)
         trial = {} if trial is None else trial
         trial["contact"] = cs
     return trial
@@ -154,43 +138,20 @@ def choose_dt(case, model):
     return dt, est
 
 
-def advance(model, state, n_steps, damping_alpha=0.0, damping_local=0.0):
-    """Advance the state by n_steps explicit steps (compiled loop; the
-    spring kernel is chosen once here: elastic, or inelastic when the model
-    has yield, rupture or cuts).  Damping: mass-proportional α [1/s],
+def advance(model, state, n_steps, damping_alpha=0.0, damping_local=0.0, options=None):
+    """Advance the state by n_steps explicit steps (compiled loop,
+    physics/integrate.py run_dynamic; its passes chosen once by `options`,
+    default Options.of(model)).  Damping: mass-proportional α [1/s],
     Cundall's local β (physics/integrate.py dynamic_body_pass)."""
     m = model
+    opt = Options.of(m) if options is None else options
+    bodies, springs, loads = model_arrays(m)
+    contact = contact_arrays(m, state.contact) if opt.contact else None
     state.step = run_dynamic(
-        n_steps, state.step, state.dt, m.inelastic,
-        m.spring_bodies, m.spring_arm_a, m.spring_arm_b, m.spring_slot, m.face_frame0, m.face_k, m.spring_area, m.face_h, m.face_law, m.law_params,
-        state.spring_state, state.spring_dp, state.spring_kappa, state.spring_dmg,
-        state.spring_wp, state.spring_wf, m.phase_ptr, m.group_ptr,
-        state.body_wrench, state.body_support, state.spring_force,
-        m.body_mass, m.body_inertia, state.body_pos, m.body_pos0, state.body_quat,
-        m.body_quat0, state.body_vel, state.body_angmom, state.body_rot, state.body_dq,
-        m.body_fext, m.body_mext, m.body_ffol, m.body_mfol, m.body_load_hist, m.gravity,
-        damping_alpha, damping_local,
-        m.dof_kind, m.dof_value, m.dof_hist, m.hist_ptr, m.hist_t, m.hist_a,
-        state.body_work, state.body_damp, state.body_reaction, m.poisson_on,
-        *poisson_args(m, state), *_contact_args(m, state))
-
-
-def _contact_args(model, state, cs=None):
-    """(contact_on, overwrite, args) of run_dynamic / collide.contact_step;
-    typed empty arrays when the scene has no contact (one compiled kernel)."""
-    if model.contact is None:
-        return False, False, _NO_CONTACT
-    cs = state.contact if cs is None else cs
-    return True, model.n_springs == 0, cs.args(model.contact)
-
-
-_NO_CONTACT = (np.zeros((0, 2), np.int32), np.zeros((0, 3)), np.zeros(0, np.int32),
-               np.zeros((0, N_OUT)),
-               np.zeros(1, np.int64), np.zeros(0, np.int64), np.zeros(0), np.zeros((0, 6)),
-               np.zeros(1, np.int64), np.zeros(1, np.int64), np.zeros((0, 3)), np.zeros((0, 4)),
-               np.zeros(1, np.int64), np.zeros(1, np.int64), np.zeros((0, 3)),
-               np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0),
-               np.zeros(0, np.uint8), np.zeros(4), 0.0, 1.0, 0.0, np.zeros((1, 1, 3)))
+        n_steps, state.step, Stepping(float(state.dt), float(damping_alpha),
+                                      float(damping_local)),
+        bodies, springs, loads, body_state(state), history(state, opt),
+        aux_stress(m, state, opt), contact, parallel_arg(opt))
 
 
 def synchronize(model, state, trial=None):
@@ -204,11 +165,9 @@ def synchronize(model, state, trial=None):
     n = m.n_bodies
     vel = np.empty((n, 3))
     ang = np.empty((n, 3))
-    synchronized_momenta(state.time, state.dt, state.body_wrench, state.body_support,
-                         m.body_mass, state.body_vel, state.body_angmom, state.body_rot,
-                         m.body_fext, m.body_mext, m.body_ffol, m.body_mfol, m.body_load_hist,
-                         m.gravity, m.dof_kind, m.dof_value, m.dof_hist, m.hist_ptr, m.hist_t,
-                         m.hist_a, vel, ang, state.body_reaction)
+    bodies, springs, loads = model_arrays(m)
+    synchronized_momenta(state.time, state.dt, bodies, loads, body_state(state),
+                         (vel, ang, state.body_reaction), parallel_arg(Options.of(m)))
     return vel, ang
 
 
@@ -426,6 +385,8 @@ def _loop(model, state, recorder, progress, record, energy_runaway, ckpt, guard,
           n_total, out_every, chunk_steps, damping, v_limit, dt, est, governor=None):
     obs = {}
     over = 0                  # output frames in a row over the energy bound
+    # the passes, once per run: for the most threads the run may take
+    opt = Options.of(model, threads=None if governor is None else governor.available)
     if progress:
         progress.start(n_total, dt)
     while state.step < n_total:
@@ -436,7 +397,7 @@ def _loop(model, state, recorder, progress, record, energy_runaway, ckpt, guard,
             # chunk short enough that none moves a quarter skin in it
             rebuild(model, state)
             n = min(n, contact_chunk(model, state, dt, model.gravity))
-        advance(model, state, n, *damping)
+        advance(model, state, n, *damping, options=opt)
         if model.contact is not None and not state.contact.stiff_warning:
             # the stable step with the contacts the chunk ended with
             state.contact.stiff_warning = stiffness_check(model, state, dt, est)

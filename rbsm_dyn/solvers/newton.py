@@ -60,19 +60,19 @@ import scipy.linalg as sla
 import scipy.sparse.linalg as spla
 
 from ..model import new_state
-from ..physics.inelastic import inelastic_spring_pass
 from ..physics.integrate import DISPLACEMENT, FREE, VELOCITY
 from ..physics.laws import (BROKEN, P_COH, P_CRIT, P_FT, P_GF, P_GS, P_MU, P_RS, P_RUPT,
                             P_SY, P_TANPHI, P_TENSION)
 from ..physics.laws.plastic import MOHR_COULOMB, plastic_return
 from ..physics.laws.rupture import MIXED, SOFTENING, mixed_mode_damage, softening_damage
-from ..physics.poisson import poisson_args, poisson_pass
+from ..physics.passes import spring_forces
 from ..physics.rotation import quat_matrix_np, quat_mul_np
-from ..physics.springs import elastic_spring_pass, spring_local_gap
+from ..physics.springs import spring_local_gap
 from ..stiffness import model_load
 from .explicit import RunFailed
 from .assembly import assemble_triplets, changed_springs
-from .relax import apply_increment, record_frame
+from .passes import Options, aux_stress, body_state, history, model_arrays, parallel_arg
+from .statics import apply_increment, record_frame
 
 NEWTON_MAX_IT = 40      # iterations per increment before it is cut
 MAX_CUTS = 12           # halvings of one increment
@@ -128,31 +128,12 @@ class Newton:
         history (commit: write the new history into the state); returns the
         trial spring states and damage (for the secant stiffness)."""
         m = self.m
-        if m.inelastic:
-            if commit:
-                arrs = (state.spring_state, state.spring_dp, state.spring_kappa,
-                        state.spring_dmg, state.spring_wp, state.spring_wf)
-            else:
-                arrs = (state.spring_state.copy(), state.spring_dp.copy(),
-                        state.spring_kappa.copy(), state.spring_dmg.copy(),
-                        state.spring_wp.copy(), state.spring_wf.copy())
-            inelastic_spring_pass(m.phase_ptr, m.group_ptr, m.spring_bodies, m.spring_arm_a,
-                                  m.spring_arm_b, m.spring_slot, m.face_frame0, m.face_k, m.spring_area, m.face_h, m.face_law, m.law_params, state.body_pos,
-                                  state.body_rot, state.body_dq, state.body_wrench,
-                                  state.body_support, *arrs, True, state.spring_force)
-            sstate, dmg = arrs[0], arrs[3]
-        else:
-            elastic_spring_pass(m.phase_ptr, m.group_ptr, m.spring_bodies, m.spring_arm_a,
-                                m.spring_arm_b, m.spring_slot, m.face_frame0, m.face_k, m.spring_area,
-                                state.body_pos, state.body_rot, state.body_dq,
-                                state.body_wrench, state.body_support, True,
-                                state.spring_force)
-            sstate, dmg = None, None
-        if m.poisson_on:
-            ss = state.spring_state if sstate is None else sstate
-            dd = state.spring_dmg if dmg is None else dmg
-            poisson_pass(m.inelastic, *poisson_args(m, state)[:8], ss, dd, state.body_pos,
-                         state.body_rot, state.aux_g, state.aux_p, state.body_wrench)
+        opt = Options.of(m)
+        bodies, springs, loads = model_arrays(m)
+        hist = history(state, opt, copy=not commit)
+        spring_forces(springs, body_state(state), hist, aux_stress(m, state, opt), True, False,
+                      parallel_arg(opt))
+        sstate, dmg = (None, None) if hist is None else (hist.spring_state, hist.spring_dmg)
         return sstate, dmg
 
     def residual(self, state, lam):
@@ -227,12 +208,11 @@ class Newton:
         k = np.zeros((m.n_springs, 3, 3))
         if sstate is not None:
             gap = np.empty((m.n_springs, 3))
-            spring_local_gap(m.spring_bodies, m.spring_arm_a, m.spring_arm_b, m.spring_slot,
-                             m.face_frame0, state.body_pos, state.body_rot, state.body_dq, gap)
+            spring_local_gap(model_arrays(m)[1], body_state(state), gap)
             self.tangent = bool(_local_tangents(
-                m.spring_k, m.spring_area, m.spring_h, m.spring_law, m.law_params, sstate, dmg,
-                state.spring_dmg, state.spring_kappa, state.spring_dp, gap, OPEN_FRACTION,
-                self.use_tangent, k))
+                (m.spring_k, m.spring_area, m.spring_h, m.spring_law, m.law_params),
+                (sstate, dmg), (state.spring_dmg, state.spring_kappa, state.spring_dp), gap,
+                OPEN_FRACTION, self.use_tangent, k))
         else:
             k[:, [0, 1, 2], [0, 1, 2]] = m.spring_k
         n = self.n
@@ -375,8 +355,8 @@ class _LowRank:
         rows = np.empty(nv, dtype=np.int64)
         cols = np.empty(nv, dtype=np.int64)
         vals = np.empty(nv)
-        assemble_triplets(changed, m.spring_bodies, m.spring_arm_a, m.spring_arm_b, self.rot,
-                          self.frames, k[changed] - self.k0[changed], rows, cols, vals)
+        assemble_triplets(changed, model_arrays(m)[1], self.rot, self.frames,
+                          k[changed] - self.k0[changed], rows, cols, vals)
         ok = rows >= 0
         rows, cols, vals = rows[ok], cols[ok], vals[ok]
         lr, lc = self.loc[rows], self.loc[cols]
@@ -460,8 +440,7 @@ class _LowRank:
 
 
 @nb.njit(cache=True)
-def _local_tangents(spring_k, spring_area, spring_h, spring_law, law_params, state, dmg,
-                    dmg0, kappa0, dp, gap, open_fraction, tangent, out):
+def _local_tangents(laws, trial, committed, gap, open_fraction, tangent, out):
     """Local stiffness (3 × 3, [N/m]) of every spring at its trial state
     (rupture.py's laws): intact: diag(kn, ks, kt) times (1 − D) (a closed
     face's normal spring whole); a spring whose damage grows in this
@@ -471,7 +450,12 @@ def _local_tangents(spring_k, spring_area, spring_h, spring_law, law_params, sta
     the faces overlap (δn < 0: a face at zero gap, the notch of a cut at the
     start, opens under tension; tangential too with friction), else
     `open_fraction` of it.  `tangent` False: the secant (1 − D) K for all.
-    Returns True when some spring got a tangent."""
+    Returns True when some spring got a tangent.  laws: (spring_k,
+    spring_area, spring_h, spring_law, law_params) per spring point; trial:
+    (state, dmg) the trial history; committed: (dmg0, kappa0, dp)."""
+    spring_k, spring_area, spring_h, spring_law, law_params = laws
+    state, dmg = trial
+    dmg0, kappa0, dp = committed
     any_soft = False
     g = np.zeros(3)
     for s in range(spring_k.shape[0]):

@@ -38,6 +38,7 @@ from ..physics.inelastic import strain_energy
 from ..physics.laws import BROKEN
 from ..physics.poisson import poisson_energy
 from ..physics.cell_stress import cell_stress
+from .passes import Options, body_state, history, model_arrays
 
 FIELD_SERIES = {
     "position": ("particles/bodies/position", (3,), "f8", "m"),
@@ -258,10 +259,8 @@ def surface_load_levers(case, model):
 def strain_energy_of(m, state):
     """Energy held by the springs of model m in `state` [J]
     (physics/inelastic.strain_energy; the Poisson pass's apart)."""
-    return strain_energy(m.spring_bodies, m.spring_arm_a, m.spring_arm_b, m.spring_slot,
-                         m.face_frame0, m.face_k, m.spring_area, state.body_pos,
-                         state.body_rot, state.body_dq, m.inelastic, state.spring_state,
-                         state.spring_dp, state.spring_dmg)
+    opt = Options.of(m)
+    return strain_energy(model_arrays(m)[1], body_state(state), history(state, opt))
 
 
 class Recorder:

@@ -15,10 +15,11 @@ import time as _time
 import numpy as np
 
 from ..model import dof_row_sums, new_state
-from ..physics.integrate import refresh_all_rotations
-from ..physics.poisson import poisson_args
+from ..physics.arrays import Relaxation
 from ..physics.relax import ADAPTIVE, LOCAL, run_relax
 from .explicit import RunFailed  # noqa: F401  (re-exported)
+from .passes import Options, aux_stress, body_state, history, model_arrays, parallel_arg
+from .statics import apply_increment, load_work, record_frame  # noqa: F401 (re-exported)
 
 GERSHGORIN_SAFETY = 0.81   # λ_max(M⁻¹K) ≤ 4·0.81 at a unit step
 
@@ -53,6 +54,10 @@ def run(case, model, recorder, *, max_steps=None, progress=None, check_every=200
     num, den = np.zeros(n), np.zeros(n)
     arm = float(np.median(np.linalg.norm(m.spring_arm_a, axis=1))) or 1.0
     resid = np.zeros(m.n_bodies)
+    relax = Relaxation(fm, fi, arm, kind, float(beta), resid, theta, rprev, num, den)
+    opt = Options.of(m)
+    bodies, springs, loads = model_arrays(m)
+    par = parallel_arg(opt)
     n_steps = sol.load_steps
     iterations = []
     total = 0
@@ -75,17 +80,8 @@ def run(case, model, recorder, *, max_steps=None, progress=None, check_every=200
             k = min(check_every, sol.max_iterations - it)
             if max_steps is not None:
                 k = min(k, max(0, int(max_steps) - total))
-            ek, c = run_relax(
-                k, lam, kind, beta, c, it == 0, m.spring_bodies, m.spring_arm_a,
-                m.spring_arm_b, m.spring_slot, m.face_frame0, m.face_k, m.inelastic, m.spring_area, m.face_h, m.face_law, m.law_params,
-                state.spring_state, state.spring_dp, state.spring_kappa,
-                state.spring_dmg, state.spring_wp, state.spring_wf, m.phase_ptr,
-                m.group_ptr, state.body_wrench, state.body_support, state.spring_force,
-                m.body_mass, fm, fi, state.body_pos, m.body_pos0, state.body_quat,
-                m.body_quat0, state.body_vel, state.body_angmom, state.body_rot,
-                state.body_dq, m.body_fext, m.body_mext, m.gravity, m.dof_kind,
-                m.dof_value, arm, resid, state.body_reaction, theta, rprev, num, den,
-                m.poisson_on, *poisson_args(m, state))
+            ek, c = run_relax(k, lam, c, it == 0, bodies, springs, loads, body_state(state),
+                              history(state, opt), aux_stress(m, state, opt), relax, par)
             it += k
             total += k
             if not np.all(np.isfinite(state.body_pos)):
@@ -161,78 +157,3 @@ def elastic_predictor(model):
     except ValueError:
         return None
     return U if np.all(np.isfinite(U)) else None
-
-
-def apply_increment(model, state, dU):
-    """Move free components by dU (N, 6): translations added, rotations as an
-    exact rotation by the world rotation vector θ, q <- exp(θ/2) ⊗ q."""
-    n = model.n_bodies
-    free = model.dof_kind == 0
-    d = np.where(free, dU, 0.0)
-    state.body_pos[:n] += d[:, :3]
-    th = d[:, 3:]
-    ang = np.linalg.norm(th, axis=1)
-    turn = ang > 0
-    if np.any(turn):
-        axis = th[turn] / ang[turn, None]
-        dq = np.concatenate([np.cos(0.5 * ang[turn])[:, None],
-                             np.sin(0.5 * ang[turn])[:, None] * axis], axis=1)
-        from ..physics.rotation import quat_mul_np
-        q = quat_mul_np(dq, state.body_quat[:n][turn])
-        state.body_quat[np.nonzero(turn)[0]] = q / np.linalg.norm(q, axis=1)[:, None]
-        refresh_all_rotations(n, state.body_quat, model.body_quat0, state.body_rot, state.body_dq)
-
-
-def load_work(model, state, lam):
-    """Work of the loads at factor lam and of prescribed displacements on the
-    current displacement (static: F·u + M·θ, exact for a linear response
-    only up to the factor ½ that the strain energy carries) [J]."""
-    from .output import rotation_vectors
-    u = state.body_pos[:-1] - model.body_pos0[:-1]
-    applied = lam * (model.body_fext + model.body_mass[:, None] * model.gravity)
-    disp = model.dof_kind[:, :3] == 3
-    work = float(np.sum(applied * u) + np.sum(state.body_reaction[disp] * u[disp]))
-    if np.any(model.body_mext):
-        work += float(np.sum(lam * model.body_mext * rotation_vectors(model, state.body_quat)))
-    return work
-
-
-def path_work(recorder, model, state, lam):
-    """External work along the load path [J]: the trapezoidal sum over the
-    recorded equilibrium states of ½ (f_k−1 + f_k)·(u_k − u_k−1), f the
-    loads at factor λ and the constraint forces on prescribed
-    displacements, u the displacements and rotation vectors.  At
-    equilibrium it equals strain + plastic + fracture energy (exactly for a
-    linear response, to O(Δλ²) otherwise), so a static run's energy
-    balance means what a dynamic run's does (issue 13)."""
-    from .output import rotation_vectors
-    n = model.n_bodies
-    f = np.zeros((n, 6))
-    f[:, :3] = lam * (model.body_fext + model.body_mass[:, None] * model.gravity)
-    f[:, 3:] = lam * model.body_mext
-    disp = model.dof_kind[:, :3] == 3
-    cons = state.body_reaction - state.body_support[:n]
-    f[:, :3][disp] += cons[disp]
-    u = np.zeros((n, 6))
-    u[:, :3] = state.body_pos[:n] - model.body_pos0[:n]
-    u[:, 3:] = rotation_vectors(model, state.body_quat)[:n]
-    prev = getattr(recorder, "_path_work", None)
-    if prev is None:
-        work = 0.5 * float(np.sum(f * u))        # from the unloaded start
-    else:
-        f0, u0, w0 = prev
-        work = w0 + 0.5 * float(np.sum((f0 + f) * (u - u0)))
-    recorder._path_work = (f, u, work)
-    return work
-
-
-def record_frame(recorder, model, state, step, lam, ratio):
-    """One frame of a static solution at load factor lam (velocities zero)."""
-    from .explicit import spring_pass
-    spring_pass(model, state)
-    n = model.n_bodies
-    zero = np.zeros((n, 3))
-    work = path_work(recorder, model, state, lam)
-    obs = {"kinetic": 0.0, "strain": recorder.strain_energy(state), "external_work": work,
-           "damping": 0.0, "residual": float(ratio)}
-    recorder.append(state, step, lam, zero, zero, obs, np.full(n, lam))

@@ -1,0 +1,101 @@
+"""Options: which passes a run compiles and calls, chosen once per run.
+
+The explicit step is a list of passes (physics/integrate.py run_dynamic):
+
+    springs (elastic | inelastic) -> aux stress (Poisson) -> contact -> bodies
+
+and dynamic relaxation the same force passes with its own body pass
+(physics/relax.py run_relax).  A pass that is off gets None for its
+container (physics/arrays.py): Numba prunes it before typing, so it is
+neither compiled nor paid for per spring point.  This module turns a
+Model and State (model.py) into the kernels' containers and Options.
+"""
+from dataclasses import dataclass
+
+import numba as nb
+
+from ..physics.arrays import BodyState, Bodies, ContactArrays, Loads, Springs, SpringHistory, of
+from ..physics.poisson import poisson_slots
+# spring points below which every pass runs on one thread (the same sums in
+# the same order, so the same result), and the threaded variants, a cold
+# start's largest compile, are not compiled
+from ..physics.springs import SERIAL_SPRINGS
+
+
+@dataclass(frozen=True)
+class Options:
+    """The switches of a run (hashable).  inelastic: the spring history
+    pass (yield, rupture, cuts, contact springs); poisson: the auxiliary
+    stress; contact: contact between any cells; parallel: the threaded
+    variants of the passes."""
+    inelastic: bool
+    poisson: bool
+    contact: bool
+    parallel: bool
+
+    @classmethod
+    def of(cls, model, threads=None):
+        """The options of a model; `threads`: the most threads the run may
+        use (default: Numba's count now)."""
+        if threads is None:
+            threads = nb.get_num_threads()
+        return cls(inelastic=bool(model.inelastic), poisson=bool(model.poisson_on),
+                   contact=model.contact is not None,
+                   parallel=model.n_springs >= SERIAL_SPRINGS and threads > 1)
+
+    def passes(self, body="dynamic"):
+        """The step's passes in order, by name (for `info` and the docs)."""
+        out = ["springs:" + ("inelastic" if self.inelastic else "elastic")]
+        if self.poisson:
+            out.append("aux_stress")
+        if self.contact and body == "dynamic":
+            out.append("contact")
+        out.append("bodies:" + body)
+        return out
+
+
+def model_arrays(model):
+    """(Bodies, Springs, Loads) of a model (built once, kept on it)."""
+    got = model.__dict__.get("_kernel_arrays")
+    if got is None:
+        got = (of(Bodies, model), of(Springs, model), of(Loads, model))
+        model.__dict__["_kernel_arrays"] = got
+    return got
+
+
+def body_state(state):
+    """The BodyState of a State (the same arrays, no copies)."""
+    return of(BodyState, state)
+
+
+def history(state, options, copy=False):
+    """The SpringHistory of a state (copies with `copy`), None when the
+    run has no inelastic springs."""
+    if not options.inelastic:
+        return None
+    if copy:
+        return SpringHistory(*(getattr(state, f).copy() for f in SpringHistory._fields))
+    return of(SpringHistory, state)
+
+
+def aux_stress(model, state, options):
+    """The PoissonSlots of the run, None without the correction."""
+    if not options.poisson:
+        return None
+    return poisson_slots(model.poisson, state.aux_g, state.aux_p)
+
+
+def contact_arrays(model, cs):
+    """The ContactArrays of a contact state cs (contact_model.ContactState)."""
+    cm = model.contact
+    return ContactArrays(cs.pairs, cs.slip, cs.sep, cs.out, cs.ptr, cs.entry, cs.body_friction,
+                         cs.body_dwrench, cm.cell_face_ptr, cm.loop_ptr, cm.loop_xyz,
+                         cm.face_plane, cm.cell_loop_ptr, cm.vert_ptr, cm.vert_xyz, cm.radius,
+                         cm.body_size, cm.body_e, cm.body_g, cm.body_rigid, cm.ground,
+                         float(cm.mu), float(cm.kfac), float(cm.zeta), cs.scratch,
+                         model.n_springs == 0)
+
+
+def parallel_arg(options):
+    """The kernels' `parallel` argument: None prunes the threaded variants."""
+    return True if options.parallel else None
