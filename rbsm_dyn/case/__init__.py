@@ -1074,7 +1074,7 @@ def part_cell_size(case: Case, part: ScenePart) -> float:
     if m.kind == "blocks" and m.divisions is not None:
         if part.geometry.kind() == "box":
             return _box_size(part.geometry.box, m.divisions)
-        from .geometry import GeometryError, build_solid
+        from ..geometry import GeometryError, build_solid
         try:
             lo, hi = build_solid(part.geometry.spec(), chord=1e9, base_dir=_case_dir(case)).bounds
         except GeometryError as exc:
@@ -1094,7 +1094,7 @@ def part_solid(case: Case, part: ScenePart, cell_size: Optional[float] = None):
     d = part.geometry
     if d._solid is not None:
         return d._solid
-    from .geometry import GeometryError, build_solid
+    from ..geometry import GeometryError, build_solid
     if cell_size is None:
         cell_size = part_cell_size(case, part)
     chord = part.mesh.chord * cell_size
@@ -1144,7 +1144,7 @@ def surface_indices(case: Case, name: str) -> tuple:
                              + (f" of part {part.name}" if case.parts else "")
                              + f" (its surfaces: {', '.join(FACES)})")
         return (offset + FACES.index(local),)
-    from .geometry import GeometryError
+    from ..geometry import GeometryError
     try:
         return tuple(offset + i for i in part_solid(case, part).surface_ids(local))
     except GeometryError as exc:
