@@ -44,77 +44,13 @@ __all__ = [
     "MAX_CELLS", "NUMBER_LIMIT",
 ]
 
-KeyPath = tuple  # a key path: str keys and int list indices
+from .errors import (_fail, _nearest_line, _show, CaseError, DOCUMENT, format_path, KeyPath)
+
 
 MAX_CELLS = 5e6          # a mesh with more cells than this is refused
 NUMBER_LIMIT = 1e30      # every number is 0 or of magnitude in [1/limit, limit]
 FAR_CELLS_VORONOI = 1e4  # the domain lies within this many cell sizes of the origin
 FAR_CELLS_BLOCKS = 1e8   # (round-off; see _check)
-DOCUMENT = "<document>"  # key path shown for errors about the whole file
-
-
-# ---------------------------------------------------------------- errors ---
-
-def format_path(path: KeyPath) -> str:
-    """``("boundary", 0, "fix")`` -> ``"boundary[0].fix"``."""
-    out = ""
-    for part in path:
-        if isinstance(part, int) and not isinstance(part, bool):
-            out += f"[{part}]"
-        else:
-            text = _show(part) if part is None or isinstance(part, bool) else str(part)
-            if not text or not text.isprintable():   # '', tabs, line breaks...
-                text = repr(text)
-            out += ("." if out else "") + text
-    return out or DOCUMENT
-
-
-class CaseError(Exception):
-    """A bad case file.  ``str(e) == "file:line: key.path: message"``.
-
-    Attributes: ``file``, ``line`` (int, or None when unknown: shown as
-    ``?``), ``path`` (dotted key path string), ``key_path`` (the tuple) and
-    ``message``.
-    """
-
-    def __init__(self, file: str, line: Optional[int], path: KeyPath | str,
-                 message: str):
-        self.file = file
-        self.line = line
-        self.key_path = tuple(path) if not isinstance(path, str) else (path,)
-        self.path = path if isinstance(path, str) else format_path(path)
-        self.message = message
-        self.others: list[CaseError] = []   # all schema errors, when several
-        super().__init__(str(self))
-
-    def __str__(self) -> str:
-        line = "?" if self.line is None else self.line
-        return f"{self.file}:{line}: {self.path}: {self.message}"
-
-
-def _fail(message: str) -> PydanticCustomError:
-    """A validation error whose message is shown to the user unchanged."""
-    return PydanticCustomError("case", "{message}", {"message": message})
-
-
-def _show(value: Any) -> str:
-    """A value as the user would write it in YAML, for messages."""
-    if value is None:
-        return "null"
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, float):
-        text = f"{value:g}"
-        return text + ".0" if text.lstrip("-").isdigit() else text
-    if isinstance(value, int):
-        return str(value)
-    if isinstance(value, str):
-        return repr(value)
-    if isinstance(value, dict):
-        return "a mapping"
-    if isinstance(value, list):
-        return "a list"
-    return repr(value)
 
 
 # ------------------------------------------------------------ the schema ---
@@ -770,13 +706,6 @@ def _to_si(node: Any, factors: dict[str, float]) -> None:
 
 _CORE_TAGS = {f"tag:yaml.org,2002:{t}" for t in
               ("str", "int", "float", "bool", "null", "map", "seq", "timestamp")}
-
-
-def _nearest_line(lines: dict, path: KeyPath) -> Optional[int]:
-    path = tuple(path)
-    while path not in lines and path:
-        path = path[:-1]
-    return lines.get(path)
 
 
 #: Values that YAML aliases (``*name``) may add to a document in all: enough
