@@ -45,72 +45,14 @@ __all__ = [
 ]
 
 from .errors import (_fail, _nearest_line, _show, CaseError, DOCUMENT, format_path, KeyPath)
+from .base import (_fix_list, _length, _Node, Box, Component, Face, FaceComponent, FACES,
+                   History, Vec3, Vec3Free)
 
 
 MAX_CELLS = 5e6          # a mesh with more cells than this is refused
 NUMBER_LIMIT = 1e30      # every number is 0 or of magnitude in [1/limit, limit]
 FAR_CELLS_VORONOI = 1e4  # the domain lies within this many cell sizes of the origin
 FAR_CELLS_BLOCKS = 1e8   # (round-off; see _check)
-
-
-# ------------------------------------------------------------ the schema ---
-
-class _Node(BaseModel):
-    """Base of every case model: strict numbers, unknown keys refused."""
-    model_config = ConfigDict(extra="forbid", strict=True,
-                              allow_inf_nan=False, populate_by_name=True)
-
-    @model_validator(mode="before")
-    @classmethod
-    def _known_keys(cls, data: Any) -> Any:
-        if isinstance(data, dict):
-            allowed = [f.alias or n for n, f in cls.model_fields.items()]
-            for key in data:
-                if key not in allowed:
-                    raise PydanticCustomError(
-                        "unknown_key", "{message}",
-                        {"key": key, "message": f"unknown key {_show(key)} "
-                         f"(allowed: {', '.join(allowed)})"})
-        return data
-
-    def given(self, key: str) -> bool:
-        """True when the YAML gave ``key`` (a field name or YAML alias)."""
-        for name, f in type(self).model_fields.items():
-            if key in (name, f.alias):
-                return name in self.model_fields_set
-        return False
-
-
-def _length(n: int, form: str):
-    """Before-validator: a list must have exactly ``n`` items."""
-    def check(value: Any) -> Any:
-        if isinstance(value, list) and len(value) != n:
-            raise _fail(f"expected {n} values {form} (got {len(value)})")
-        return value
-    return BeforeValidator(check)
-
-
-Vec3 = Annotated[list[float], _length(3, "[x, y, z]")]
-Vec3Free = Annotated[list[Optional[float]], _length(3, "[x, y, z] (null = free)")]
-Box = Annotated[list[Vec3], _length(2, "[[x0, y0, z0], [x1, y1, z1]]")]
-History = Annotated[list[Annotated[list[float], _length(2, "[time, amplitude]")]],
-                    Field(min_length=1)]
-Face = Literal["xmin", "xmax", "ymin", "ymax", "zmin", "zmax"]
-FACES = get_args(Face)          # the surfaces of a box domain
-Component = Literal["x", "y", "z", "rx", "ry", "rz"]
-FaceComponent = Literal["x", "y", "z"]
-
-
-def _fix_list(components: tuple[str, ...]):
-    """Before-validator: ``fix: all`` -> the explicit list of components."""
-    def expand(value: Any) -> Any:
-        if value == "all":
-            return list(components)
-        if isinstance(value, str):
-            raise _fail(f"must be all or a list of {', '.join(components)} "
-                        f"(got {value!r})")
-        return value
-    return BeforeValidator(expand)
 
 
 GEOMETRY_KINDS = ("cylinder", "sphere", "prism", "union", "difference", "intersection", "file")
