@@ -48,46 +48,13 @@ from .errors import (_fail, _nearest_line, _show, CaseError, DOCUMENT, format_pa
 from .base import (_fix_list, _length, _Node, Box, Component, Face, FaceComponent, FACES,
                    History, Vec3, Vec3Free)
 from .scene import (Contact, Cut, Domain, GEOMETRY_KINDS, Ground, Interface, Mesh, Part)
+from .materials import (Material, Rupture, Yield)
 
 
 MAX_CELLS = 5e6          # a mesh with more cells than this is refused
 NUMBER_LIMIT = 1e30      # every number is 0 or of magnitude in [1/limit, limit]
 FAR_CELLS_VORONOI = 1e4  # the domain lies within this many cell sizes of the origin
 FAR_CELLS_BLOCKS = 1e8   # (round-off; see _check)
-
-
-class Yield(_Node):
-    """Yield criterion of the springs (physics/laws/plastic.py): the
-    traction of each spring point returned to the surface of ``criterion``
-    with ``stress`` (normal, tresca, von_mises) or ``cohesion``,
-    ``friction_angle`` [degrees] and ``tension`` (mohr_coulomb)."""
-    criterion: Literal["normal", "tresca", "von_mises", "mohr_coulomb"]
-    stress: Optional[float] = Field(default=None, gt=0)
-    cohesion: Optional[float] = Field(default=None, ge=0)
-    friction_angle: Optional[float] = Field(default=None, ge=0, lt=90)  # degrees
-    tension: Optional[float] = Field(default=None, ge=0)
-
-
-class Rupture(_Node):
-    """``{strain}`` or ``{fracture_energy, tensile_strength}`` (+ ``law``,
-    ``shear_strength``, ``shear_fracture_energy``, ``values``)."""
-    strain: Optional[float] = Field(default=None, gt=0)
-    fracture_energy: Optional[float] = Field(default=None, gt=0)
-    tensile_strength: Optional[float] = Field(default=None, gt=0)
-    law: Optional[Literal["mixed_mode", "tension"]] = None
-    shear_strength: Optional[float] = Field(default=None, gt=0)
-    shear_fracture_energy: Optional[float] = Field(default=None, gt=0)
-    values: Literal["material", "spring"] = "material"
-
-
-class Material(_Node):
-    density: float = Field(gt=0)
-    young: float = Field(gt=0)
-    poisson: float = Field(ge=0, lt=0.5)
-    stiffness: Literal["calibrated", "kawai", "homogeneous"] = "calibrated"
-    yield_: Optional[Yield] = Field(default=None, alias="yield")
-    rupture: Optional[Rupture] = None
-    friction: Optional[float] = Field(default=None, ge=0)
 
 
 class Group(_Node):
