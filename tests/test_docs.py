@@ -1,7 +1,7 @@
 """The documentation tells the truth about the schema, and it builds.
 
 * the case-file reference (docs/reference/case_keys.md) is what
-  ``python -m rbsm_dyn.schema_doc`` makes of rbsm_dyn/case.py today, and it
+  ``python -m rbsm_dyn.schema_doc`` makes of rbsm_dyn/case/ today, and it
   and docs/case_file.md name every key (and every allowed value) the schema
   accepts;
 * every YAML example in docs/*.md that is a case, or a fragment of one
@@ -39,17 +39,17 @@ TOP_KEYS = {f.alias or n for n, f in schema.Case.model_fields.items()}
 def test_reference_is_up_to_date():
     committed = REFERENCE.read_text(encoding="utf-8") if REFERENCE.exists() else ""
     assert committed == schema_doc.generate(), (
-        f"{schema_doc.OUTPUT} does not match rbsm_dyn/case.py: regenerate with "
+        f"{schema_doc.OUTPUT} does not match rbsm_dyn/case/: regenerate with "
         f"{schema_doc.REGENERATE} and commit it")
 
 
 def _schema_models() -> list[type]:
-    """Every model class of rbsm_dyn/case.py, found apart from schema_doc's
+    """Every model class of rbsm_dyn/case/, found apart from schema_doc's
     walk (every subclass of the schema's base model, recursively)."""
     out, todo = [], [schema._Node]
     while todo:
         for sub in todo.pop().__subclasses__():
-            if sub.__module__ == schema.__name__ and sub not in out:
+            if sub.__module__.startswith(schema.__name__ + ".") and sub not in out:
                 out.append(sub)
                 todo.append(sub)
     return out

@@ -16,7 +16,7 @@ end with
   time (DESIGN.md §4),
 
 never a traceback and never a hang (a hard per-example time limit).  The
-mesh limit ``rbsm_dyn.case.MAX_CELLS`` is lowered for the fuzz so that a
+mesh limit ``rbsm_dyn.case.check.MAX_CELLS`` is lowered for the fuzz so that a
 "huge size" is refused by the resource check (naming mesh.size or
 mesh.divisions) instead of being built, and every accepted case stays
 small.  A few deterministic tests run the real command in a subprocess.
@@ -43,7 +43,7 @@ from hypothesis import strategies as st
 from ruamel.yaml import YAML
 
 import rbsm_dyn
-import rbsm_dyn.case as case_module
+import rbsm_dyn.case.check as case_check
 from rbsm_dyn.__main__ import main
 
 # ------------------------------------------------------------------ bases ---
@@ -181,7 +181,7 @@ BASES = {
 }
 BASES = {k: textwrap.dedent(v) for k, v in BASES.items()}
 
-FUZZ_MAX_CELLS = 150     # rbsm_dyn.case.MAX_CELLS during the fuzz
+FUZZ_MAX_CELLS = 150     # rbsm_dyn.case.check.MAX_CELLS during the fuzz
 EXAMPLES = 1050          # hypothesis examples (the test asserts >= 1000 were tried)
 EXAMPLE_TIME_LIMIT = 30  # seconds: an example that takes longer is a hang
 
@@ -855,7 +855,7 @@ def mutated_cases(draw):
 def fuzz_root(tmp_path, monkeypatch):
     """The sandbox of the examples; the temporary directory of the process is
     an empty one of its own (what is left in it is written where not asked)."""
-    monkeypatch.setattr(case_module, "MAX_CELLS", FUZZ_MAX_CELLS)
+    monkeypatch.setattr(case_check, "MAX_CELLS", FUZZ_MAX_CELLS)
     root = tmp_path / "fuzz"
     root.mkdir()
     temp = tmp_path / "temp"

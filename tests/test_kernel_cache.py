@@ -22,7 +22,7 @@ def test_an_edit_of_a_callee_in_another_file_changes_the_cache_folder(tmp_path):
     shutil.copytree(PKG, copy, ignore=shutil.ignore_patterns("__pycache__"))
     before = kernel_cache_dir(copy)
     assert before.name.startswith(f"numba-{rbsm_dyn.__version__}-")
-    case = copy / "case.py"
+    case = copy / "case" / "__init__.py"
     case.write_text(case.read_text() + "\n# an edit without kernels\n")
     assert kernel_cache_dir(copy) == before
     law = copy / "physics" / "laws" / "rupture.py"

@@ -562,8 +562,8 @@ def test_long_list_under_an_unknown_key_is_an_unknown_key(tmp_path, capsys, monk
     lowered to 1000 (the same check, fast), a 5000-value list under an
     unknown key is reported as that unknown key, while nested aliases that
     expand to 10⁴ values are still refused as an alias bomb."""
-    import rbsm_dyn.case as case_module
-    monkeypatch.setattr(case_module, "MAX_ALIAS_VALUES", 1000)
+    import rbsm_dyn.case.parse as case_parse
+    monkeypatch.setattr(case_parse, "MAX_ALIAS_VALUES", 1000)
     listed = _write(tmp_path, SMALL + "junk: [" + ", ".join(["1"] * 5000) + "]\n", "list.yaml")
     code, _, err = _run(["check", listed], capsys)
     line = _one_error_line(err)

@@ -5,7 +5,7 @@ __all__ = ["GeometryError", "format_path"]
 
 
 def format_path(path) -> str:
-    """("difference", 1, "box") -> "difference[1].box" (the style of case.py)."""
+    """("difference", 1, "box") -> "difference[1].box" (the style of case/errors.py)."""
     out = ""
     for part in path:
         if isinstance(part, int) and not isinstance(part, bool):

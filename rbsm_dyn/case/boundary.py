@@ -1,0 +1,140 @@
+"""``groups``, ``boundary`` (supports, prescribed velocities and
+displacements), ``initial`` (velocities at t = 0) and ``loads``; the
+discriminated unions of the boundary and load items."""
+from __future__ import annotations
+
+from typing import Annotated, Any, Optional, Union
+
+from pydantic import BaseModel, Discriminator, Tag
+
+from .base import (Box, Component, Face, FaceComponent, History, Vec3, Vec3Free,
+                   _fix_list, _Node)
+
+
+class Group(_Node):
+    """Bodies whose centroid lies in ``box`` (bounds included)."""
+    box: Box
+    material: Optional[str] = None
+
+
+class FaceSupport(_Node):
+    """``{face: xmin, fix: all}``: springs to the ground on a domain face;
+    ``{surface: name, fix: ...}`` on a named surface of the domain's
+    geometry (the box's faces are the surfaces xmin ... zmax)."""
+    face: Optional[Face] = None
+    surface: Optional[str] = None
+    fix: Annotated[list[FaceComponent], _fix_list(("x", "y", "z"))]
+    breakable: bool = False
+
+
+class GroupFix(_Node):
+    """``{group: g, fix: [x, z, ry]}``: fixed components of a group's bodies."""
+    group: str
+    fix: Annotated[list[Component], _fix_list(("x", "y", "z", "rx", "ry", "rz"))]
+
+
+class GroupVelocity(_Node):
+    """``{group: g, velocity: [vx, vy, vz], history}``; None = free component.
+    ``surface: name`` instead of ``group``: the cells with a face on it."""
+    group: Optional[str] = None
+    surface: Optional[str] = None
+    velocity: Vec3Free
+    history: Optional[History] = None
+
+
+class GroupDisplacement(_Node):
+    """``{group: g, displacement: [ux, uy, uz], history}``; None = free.
+    ``surface: name`` instead of ``group``: the cells with a face on it."""
+    group: Optional[str] = None
+    surface: Optional[str] = None
+    displacement: Vec3Free
+    history: Optional[History] = None
+
+
+class RigidMotion(_Node):
+    """``rigid: {angular_velocity: [wx, wy, wz], center: [x, y, z]}`` of an
+    initial item: the group turns as one rigid body about ``center``
+    (default: the group's centre of mass)."""
+    angular_velocity: Vec3
+    center: Optional[Vec3] = None
+
+
+class InitialVelocity(_Node):
+    """``{group: g, velocity, angular_velocity}`` at t = 0: each cell of the
+    group translates at ``velocity`` and spins at ``angular_velocity`` about
+    its own centroid.  ``{group: g, velocity, rigid: {angular_velocity,
+    center}}``: the group moves as one rigid body, each cell at v + ω × (x_c
+    − center) and spinning at ω (model.apply_initial)."""
+    group: str = "all"
+    velocity: Vec3 = [0.0, 0.0, 0.0]
+    angular_velocity: Vec3 = [0.0, 0.0, 0.0]
+    rigid: Optional[RigidMotion] = None
+
+
+class GroupLoad(_Node):
+    """Total force (and moment) on a group, shared in proportion to volume."""
+    group: str
+    force: Vec3 = [0.0, 0.0, 0.0]
+    moment: Vec3 = [0.0, 0.0, 0.0]
+    history: Optional[History] = None
+
+
+class SurfaceLoad(_Node):
+    """``{surface: name, pressure: p}`` (force −p n A on each boundary face
+    of the surface, n its outward normal: p > 0 pushes into the solid) or
+    ``{surface: name, traction: [tx, ty, tz]}`` (force t A per face), at
+    each face's area centroid; optional ``history``.  ``follower: false``
+    (default): a dead load, fixed in space; ``true``: it turns with the
+    face's cell (mode dynamic; linear takes its reference value)."""
+    surface: str
+    pressure: Optional[float] = None
+    traction: Optional[Vec3] = None
+    follower: bool = False
+    history: Optional[History] = None
+
+
+class Gravity(_Node):
+    """``{gravity: [gx, gy, gz]}``: acceleration on every body."""
+    gravity: Vec3
+
+
+def _form_of(forms: dict[str, str]):
+    """Discriminator by keys present: the first key of ``forms`` found.
+    (A model instance, when serializing, is tagged by its class name.)"""
+    def pick(value: Any) -> Optional[str]:
+        if isinstance(value, BaseModel):
+            return type(value).__name__
+        if isinstance(value, dict):
+            for key, tag in forms.items():
+                if key in value:
+                    return tag
+        return None
+    return pick
+
+
+_BOUNDARY_FORMS = ("{face, fix}, {surface, fix}, {group, fix}, "
+                   "{group|surface, velocity[, history]}, "
+                   "{group|surface, displacement[, history]}")
+_LOAD_FORMS = ("{group, force[, moment][, history]}, {surface, pressure[, history]}, "
+               "{surface, traction[, history]}, {gravity}")
+
+BoundaryItem = Annotated[
+    Union[Annotated[FaceSupport, Tag("FaceSupport")],
+          Annotated[GroupFix, Tag("GroupFix")],
+          Annotated[GroupVelocity, Tag("GroupVelocity")],
+          Annotated[GroupDisplacement, Tag("GroupDisplacement")]],
+    Discriminator(_form_of({"velocity": "GroupVelocity", "displacement": "GroupDisplacement",
+                            "face": "FaceSupport", "surface": "FaceSupport",
+                            "fix": "GroupFix"}),
+                  custom_error_type="form",
+                  custom_error_message=f"expected one of {_BOUNDARY_FORMS}")]
+LoadItem = Annotated[
+    Union[Annotated[Gravity, Tag("Gravity")],
+          Annotated[GroupLoad, Tag("GroupLoad")],
+          Annotated[SurfaceLoad, Tag("SurfaceLoad")]],
+    Discriminator(_form_of({"gravity": "Gravity", "group": "GroupLoad",
+                            "surface": "SurfaceLoad", "force": "GroupLoad",
+                            "moment": "GroupLoad", "pressure": "SurfaceLoad",
+                            "traction": "SurfaceLoad"}),
+                  custom_error_type="form",
+                  custom_error_message=f"expected one of {_LOAD_FORMS}")]

@@ -1,0 +1,43 @@
+"""``materials``: each material's elastic constants, its ``yield``
+criterion and its ``rupture``."""
+from __future__ import annotations
+
+from typing import Literal, Optional
+
+from pydantic import Field
+
+from .base import _Node
+
+
+class Yield(_Node):
+    """Yield criterion of the springs (physics/laws/plastic.py): the
+    traction of each spring point returned to the surface of ``criterion``
+    with ``stress`` (normal, tresca, von_mises) or ``cohesion``,
+    ``friction_angle`` [degrees] and ``tension`` (mohr_coulomb)."""
+    criterion: Literal["normal", "tresca", "von_mises", "mohr_coulomb"]
+    stress: Optional[float] = Field(default=None, gt=0)
+    cohesion: Optional[float] = Field(default=None, ge=0)
+    friction_angle: Optional[float] = Field(default=None, ge=0, lt=90)  # degrees
+    tension: Optional[float] = Field(default=None, ge=0)
+
+
+class Rupture(_Node):
+    """``{strain}`` or ``{fracture_energy, tensile_strength}`` (+ ``law``,
+    ``shear_strength``, ``shear_fracture_energy``, ``values``)."""
+    strain: Optional[float] = Field(default=None, gt=0)
+    fracture_energy: Optional[float] = Field(default=None, gt=0)
+    tensile_strength: Optional[float] = Field(default=None, gt=0)
+    law: Optional[Literal["mixed_mode", "tension"]] = None
+    shear_strength: Optional[float] = Field(default=None, gt=0)
+    shear_fracture_energy: Optional[float] = Field(default=None, gt=0)
+    values: Literal["material", "spring"] = "material"
+
+
+class Material(_Node):
+    density: float = Field(gt=0)
+    young: float = Field(gt=0)
+    poisson: float = Field(ge=0, lt=0.5)
+    stiffness: Literal["calibrated", "kawai", "homogeneous"] = "calibrated"
+    yield_: Optional[Yield] = Field(default=None, alias="yield")
+    rupture: Optional[Rupture] = None
+    friction: Optional[float] = Field(default=None, ge=0)

@@ -1,0 +1,89 @@
+"""``solver``: the mode (dynamic, static, linear, modal) and its keys,
+damping and indirect displacement control."""
+from __future__ import annotations
+
+from typing import Literal, Optional
+
+from pydantic import Field, PrivateAttr
+
+from .base import _Node
+
+
+class Damping(_Node):
+    """Mass-proportional damping ``alpha`` [1/s]; Cundall's local
+    non-viscous damping ``local`` = β in [0, 1) (the force against each
+    body's motion, β × the unbalanced force): set, it makes the run a
+    quasi-static explicit one (the kinetic-to-strain energy ratio is
+    recorded and checked; docs/case_file.md, "Quasi-static explicit runs")."""
+    alpha: float = Field(default=0.0, ge=0)
+    local: float = Field(default=0.0, ge=0, lt=1)
+
+
+class Control(_Node):
+    """Indirect displacement control of a static run (solvers/newton.py):
+    each increment raises the value of the relative-displacement probe
+    ``probe`` by ``increment`` [m] until it reaches ``end`` [m]; the load
+    factor follows.  ``stop_fraction`` (optional, in [0, 1)): stop once the
+    load has fallen below this fraction of its peak (the softening branch
+    followed far enough; the load: the reaction along the prescribed
+    displacements, or λ times the loads when there are none)."""
+    probe: str
+    increment: float = Field(gt=0)
+    end: float
+    stop_fraction: float = Field(default=0.0, ge=0, lt=1)
+
+
+#: Largest solver.dt_safety (and fixed solver.dt as a share of the stable
+#: step estimate).  The estimate bounds the elastic step (0.61-0.74 of the
+#: exact one, benchmarks/results/stability.md), but an inelastic scene can
+#: go unstable below it: cases/impulsive_beam.yaml (plastic hinges) diverges
+#: at 0.95 and 1.0, and with yield criterion normal already at 0.9, while
+#: every shipped dynamic case runs at 0.85 (the dt sweep in stability.md,
+#: "dt_safety sweep of the shipped cases").
+DT_SAFETY_MAX = 0.85
+
+
+class Solver(_Node):
+    mode: Literal["dynamic", "static", "linear", "modal"]
+    method: Literal["relaxation", "newton"] = "relaxation"   # static: default_static_method
+    _method_default: bool = PrivateAttr(default=False)      # set by default_static_method
+    control: Optional[Control] = None
+    end_time: Optional[float] = Field(default=None, gt=0)
+    dt: Optional[float] = Field(default=None, gt=0)
+    dt_safety: float = Field(default=0.8, gt=0, le=DT_SAFETY_MAX)
+    damping: Damping = Damping()
+    load_steps: int = Field(default=10, ge=1)
+    tolerance: float = Field(default=1e-6, gt=0)
+    max_iterations: int = Field(default=200000, ge=1)
+    relaxation: Literal["adaptive", "local"] = "adaptive"
+    damping_factor: float = Field(default=0.7, ge=0, lt=1)
+    predictor: bool = True
+    threads: Optional[int] = Field(default=None, ge=1)
+    modes: int = Field(default=6, ge=1)
+
+
+RELAXATION_KEYS = ("max_iterations", "relaxation", "damping_factor", "predictor")
+
+
+def default_static_method(case) -> str:
+    """solver.method of a static case that does not give one: `newton`
+    with indirect displacement control (solver.control) and for softening
+    fracture (a material's rupture by fracture energy: dynamic relaxation
+    does not converge in any reasonable time there, issue 13), unless the
+    case gives keys of the relaxation (RELAXATION_KEYS) or has interfaces
+    between parts (frictional contact, where Newton stalls); `relaxation`
+    otherwise."""
+    s = case.solver
+    if s.control is not None:
+        return "newton"
+    if any(s.given(k) for k in RELAXATION_KEYS) or case.interfaces:
+        return "relaxation"
+    soft = any(m.rupture is not None and m.rupture.fracture_energy is not None
+               for m in case.materials.values())
+    return "newton" if soft else "relaxation"
+
+
+DYNAMIC_KEYS = ("end_time", "dt", "dt_safety", "damping")
+STATIC_KEYS = ("load_steps", "tolerance", "max_iterations", "relaxation",
+               "damping_factor", "predictor", "method", "control")
+MODAL_KEYS = ("modes",)
