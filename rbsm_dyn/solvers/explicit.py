@@ -116,7 +116,7 @@ def check_model(case, model):
 
 def choose_dt(case, model):
     """(dt, stable estimate) [s]; CaseError for a fixed solver.dt above
-    DT_SAFETY_MAX × the estimate (the largest dt_safety, case.py) or a model
+    DT_SAFETY_MAX × the estimate (the largest dt_safety, case/solver.py) or a model
     without a finite stable step (check_model)."""
     check_model(case, model)
     est = model.stable_dt()
