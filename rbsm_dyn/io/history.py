@@ -148,7 +148,7 @@ class HistoryWriter:
         if creator_version is None:
             creator_version = version
         if creator_version is None:
-            from rbsm_dyn import __version__ as creator_version
+            from .._version import __version__ as creator_version
         self.path = str(path)
         self._swmr = bool(swmr)
         self._series: dict[str, _Series] = {}
