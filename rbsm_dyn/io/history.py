@@ -40,7 +40,6 @@ from __future__ import annotations
 
 import errno
 import json
-import math
 import os
 from time import monotonic as _monotonic
 from dataclasses import dataclass
@@ -49,48 +48,12 @@ from typing import Any, Mapping
 import h5py
 import numpy as np
 
+from .history_layout import (H5MD_VERSION, _RESERVED, _STEP_TIME_CHUNK,  # noqa: F401
+                             _UNITS_MODULE_VERSION, _chunks, _norm_path)
+from .history_superblock import _hdf5_signature_at, _lookup3, clear_status_flags  # noqa: F401
+
 __all__ = ["HistoryWriter", "History", "open_history", "frame_indices", "history_to_xarray",
            "H5MD_VERSION", "HistoryFileError"]
-
-H5MD_VERSION = (1, 1)
-_UNITS_MODULE_VERSION = (1, 0)
-_RESERVED = ("h5md", "parameters", "checkpoint")   # /checkpoint: solvers/checkpoint.py
-_CHUNK_TARGET_BYTES = 1 << 20      # about 1 MiB of value data per chunk ...
-_CHUNK_MAX_FRAMES = 1024           # ... but no more than this many frames
-_STEP_TIME_CHUNK = 1024            # frames per chunk of step/time (8 KiB)
-_MAX_CHUNK_BYTES = 1 << 30         # HDF5 refuses chunks of 4 GiB or more
-
-
-def _norm_path(path: str) -> str:
-    if not isinstance(path, str):
-        raise TypeError(f"path in file must be a str, got {type(path).__name__}")
-    p = path.strip("/")
-    parts = p.split("/")
-    if not p or any(part in ("", ".", "..") for part in parts):
-        raise ValueError(f"invalid path in file: {path!r}")
-    if parts[0] in _RESERVED:
-        raise ValueError(f"path {path!r} is reserved (/{parts[0]} is written by HistoryWriter)")
-    return p
-
-
-def _chunks(tail_shape: tuple[int, ...], itemsize: int) -> tuple[int, ...]:
-    """Chunk shape for a (None, *tail_shape) dataset.
-
-    About 1 MiB per chunk (at most _CHUNK_MAX_FRAMES frames, at least one
-    frame): whole frames per chunk, so appending a frame touches one chunk.
-    Only if a single frame exceeds 1 GiB is the frame split (along its first
-    axes) -- HDF5 chunks must stay below 4 GiB.
-    """
-    tail = [max(1, int(d)) for d in tail_shape]
-    frame_bytes = itemsize * math.prod(tail)
-    rows = max(1, min(_CHUNK_MAX_FRAMES, _CHUNK_TARGET_BYTES // max(1, frame_bytes)))
-    for i in range(len(tail)):
-        if itemsize * math.prod(tail) <= _MAX_CHUNK_BYTES:
-            break
-        rest = itemsize * math.prod(tail[i + 1:])
-        tail[i] = max(1, min(tail[i], _MAX_CHUNK_BYTES // max(1, rest)))
-    return (rows, *tail)
-
 
 def _param_text(value: Any) -> str:
     if isinstance(value, str):
@@ -543,67 +506,6 @@ class HistoryWriter:
             self.close()
 
 
-def _lookup3(data: bytes, initval: int = 0) -> int:
-    """Bob Jenkins' lookup3 hashlittle, the checksum of HDF5 metadata
-    (H5_checksum_lookup3)."""
-    M = 0xFFFFFFFF
-
-    def rot(x, k):
-        return ((x << k) | (x >> (32 - k))) & M
-
-    n = len(data)
-    a = b = c = (0xDEADBEEF + n + initval) & M
-    i = 0
-    while n > 12:
-        a = (a + int.from_bytes(data[i:i + 4], "little")) & M
-        b = (b + int.from_bytes(data[i + 4:i + 8], "little")) & M
-        c = (c + int.from_bytes(data[i + 8:i + 12], "little")) & M
-        a = (a - c) & M; a ^= rot(c, 4); c = (c + b) & M      # noqa: E702
-        b = (b - a) & M; b ^= rot(a, 6); a = (a + c) & M      # noqa: E702
-        c = (c - b) & M; c ^= rot(b, 8); b = (b + a) & M      # noqa: E702
-        a = (a - c) & M; a ^= rot(c, 16); c = (c + b) & M     # noqa: E702
-        b = (b - a) & M; b ^= rot(a, 19); a = (a + c) & M     # noqa: E702
-        c = (c - b) & M; c ^= rot(b, 4); b = (b + a) & M      # noqa: E702
-        n -= 12
-        i += 12
-    if n == 0:
-        return c
-    tail = bytes(data[i:i + n]) + bytes(12 - n)
-    a = (a + int.from_bytes(tail[0:4], "little")) & M
-    b = (b + int.from_bytes(tail[4:8], "little")) & M
-    c = (c + int.from_bytes(tail[8:12], "little")) & M
-    c ^= b; c = (c - rot(b, 14)) & M      # noqa: E702
-    a ^= c; a = (a - rot(c, 11)) & M      # noqa: E702
-    b ^= a; b = (b - rot(a, 25)) & M      # noqa: E702
-    c ^= b; c = (c - rot(b, 16)) & M      # noqa: E702
-    a ^= c; a = (a - rot(c, 4)) & M       # noqa: E702
-    b ^= a; b = (b - rot(a, 14)) & M      # noqa: E702
-    c ^= b; c = (c - rot(b, 24)) & M      # noqa: E702
-    return c
-
-
-_SIGNATURE = b"\x89HDF\r\n\x1a\n"
-
-
-def clear_status_flags(path) -> None:
-    """Clear the "file is open for write / SWMR write" flags that a killed
-    writer leaves in the superblock (version 2 or 3, at offset 0: what this
-    writer makes), as ``h5clear -s`` does, so the file can be opened for
-    writing again.  Raises OSError for another superblock."""
-    with open(path, "r+b") as fh:
-        head = bytearray(fh.read(12))
-        if head[:8] != bytes(_SIGNATURE) or head[8] not in (2, 3):
-            raise OSError(f"{path}: not an HDF5 file with a version 2/3 superblock at offset 0")
-        size = 12 + 4 * head[9]               # signature .. root object header address
-        fh.seek(0)
-        block = bytearray(fh.read(size + 4))
-        if int.from_bytes(block[size:size + 4], "little") != _lookup3(bytes(block[:size])):
-            raise OSError(f"{path}: superblock checksum mismatch")
-        block[11] = 0
-        block[size:size + 4] = _lookup3(bytes(block[:size])).to_bytes(4, "little")
-        fh.seek(0)
-        fh.write(block)
-        fh.flush()
 
 
 # ====================================================================== reader
@@ -825,20 +727,6 @@ class HistoryFileError(OSError):
 
     def __str__(self):
         return str(self.strerror if self.strerror is not None else super().__str__())
-
-
-def _hdf5_signature_at(path: str) -> bool:
-    """Does the file carry the HDF5 signature where HDF5 looks for it
-    (offset 0, 512, 1024, 2048, ...: after a user block)?"""
-    size = os.path.getsize(path)
-    with open(path, "rb") as fh:
-        off = 0
-        while off + 8 <= size:
-            fh.seek(off)
-            if fh.read(8) == _SIGNATURE:
-                return True
-            off = 512 if off == 0 else 2 * off
-    return False
 
 
 _read_attempts_fn = None
