@@ -7,7 +7,7 @@ import os as _os
 # PASSIVE (benchmarks/README.md).  Read when the OpenMP runtime loads (the
 # first parallel kernel), so set on import; a value the user set is kept.
 _os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
-__version__ = "0.1.0"
+from ._version import __version__   # noqa: E402
 
 from . import _kernel_cache as _kc   # noqa: E402  (before any module defines a kernel)
 

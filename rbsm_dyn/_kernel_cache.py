@@ -25,7 +25,7 @@ KEEP = 4
 def kernel_cache_dir(root=None):
     """The cache folder of the package at `root` (this one by default)."""
     root = Path(root or Path(__file__).resolve().parent)
-    from . import __version__
+    from ._version import __version__
     h = hashlib.sha1()
     for p in sorted(root.rglob("*.py")):
         text = p.read_bytes()
