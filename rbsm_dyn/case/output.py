@@ -59,6 +59,6 @@ class Output(_Node):
     file: Optional[str] = None              # default <name>.h5
     interval: Optional[float] = Field(default=None, gt=0)  # default end_time/100
     checkpoint_interval: Optional[float] = Field(default=None, gt=0)  # s; solvers/checkpoint.py
-    flush_interval: float = Field(default=1.0, ge=0, le=3600)  # s of wall time; io/history.py
+    flush_interval: float = Field(default=1.0, ge=0, le=3600)  # s of wall time; io/history_writer.py
     fields: list[FieldName] = ["position", "orientation"]
     probes: dict[str, ProbeItem] = {}

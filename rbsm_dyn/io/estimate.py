@@ -7,7 +7,7 @@
   static: frame 0 and one per load step; linear: 2; modal: modes + 1.
 * output size: the static part of the history is written for real, by the
   run's own Recorder, to a temporary file and measured; each series then
-  grows by whole HDF5 chunks (io/history.py: ``value`` in chunks of about
+  grows by whole HDF5 chunks (io/history_layout.py: ``value`` in chunks of about
   1 MiB, ``step`` and ``time`` in chunks of 1024 frames), so the size after
   T frames is that file plus ceil(T / rows) chunks per dataset.  The modal
   /modes group is added (M × N × 6 float64).  This is the size of the file

@@ -198,7 +198,7 @@ def read_checkpoint(path, *, writer_alive=None):
     """The last valid checkpoint: dict of the State arrays and ``step``,
     ``dt``, ``time``, ``frames``, ``e0``; and the resolved case (JSON
     text) of the run.  Raises RestartError (naming the file: missing, not
-    HDF5, truncated or damaged -- at once, io/history.py _open_h5).
+    HDF5, truncated or damaged -- at once, io/history_reader.py _open_h5).
     ``writer_alive=False``: the caller holds the file's lock (a restart),
     so no writer can be waited for."""
     from ..io.history import _open_h5

@@ -71,7 +71,7 @@ def spring_damage_of(model, state):
 
 
 def frame_buffer(case):
-    """Frames are written in batches (io/history.py set_buffering): at most
+    """Frames are written in batches (io/history_writer.py set_buffering): at most
     256 frames, 64 MiB or output.flush_interval seconds of wall time late
     (a killed run loses at most that; a failed or stopped one nothing);
     flush_interval 0 writes every frame at once."""
