@@ -206,7 +206,8 @@ def test_cold_start_notice_and_its_timing(tmp_path, capsys, monkeypatch):
         calls.append(kinds)
         return [k for k in kinds if k == "dynamic"] if len(calls) == 1 else []
 
-    monkeypatch.setattr(cli, "cold_kernels", cold_once)
+    from rbsm_dyn.cli import notice              # (where CompileNotice looks it up)
+    monkeypatch.setattr(notice, "cold_kernels", cold_once)
     monkeypatch.setattr(cli.CompileNotice, "MIN_SECONDS", 0.0)
     path = _write(tmp_path, TINY)
     assert main([str(path), "--out", str(tmp_path / "run.h5")]) == 0
