@@ -1,9 +1,11 @@
 """The compile notice of a cold start (CompileNotice): which compiled kernels
 a run of each kind calls (RUN_KERNELS), whether they are cold in Numba's
 cache (kernel_is_cold, cold_kernels), and how long compiling them takes on
-this machine (compile_seconds, kept in compile_seconds.json)."""
+this machine (compile_seconds, kept in compile_seconds.json); while they
+compile, a heartbeat line every 10 s (Heartbeat)."""
 import os
 import sys
+import threading
 import time
 
 #: the package whose kernels RUN_KERNELS names (rbsm_dyn)
@@ -125,43 +127,124 @@ def record_compile_seconds(kind, seconds):
         pass
 
 
+class Heartbeat:
+    """Says "still compiling kernels (N s so far)" on stderr every SECONDS
+    (the first after SECONDS) from ``start()`` until ``stop()``, from a
+    daemon thread, so that a user never waits long in silence while kernels
+    compile.  Nothing is said once ``stop()`` has returned (the thread says
+    each line under a lock that ``stop()`` takes).  ``say(text)`` writes a
+    line."""
+
+    SECONDS = 10.0
+
+    def __init__(self, say, seconds=None):
+        self.say = say
+        self.seconds = float(self.SECONDS if seconds is None else seconds)
+        self.t0 = None
+        self._stopped = threading.Event()
+        self._lock = threading.Lock()
+        self._thread = None
+
+    @property
+    def running(self):
+        return self._thread is not None and not self._stopped.is_set()
+
+    def start(self):
+        """Start beating (once: again after start() or stop() does nothing)."""
+        if self._thread is None and not self._stopped.is_set():
+            self.t0 = time.perf_counter()
+            self._thread = threading.Thread(target=self._beat, name="rbsm_dyn heartbeat",
+                                            daemon=True)
+            self._thread.start()
+        return self
+
+    def _beat(self):
+        k = 1
+        while not self._stopped.wait(max(0.0, self.t0 + k * self.seconds
+                                          - time.perf_counter())):
+            with self._lock:
+                if self._stopped.is_set():
+                    return
+                try:
+                    self.say(f"rbsm_dyn: still compiling kernels ({k * self.seconds:.0f} s "
+                             "so far)")
+                except Exception:          # (stderr closed: say nothing more)
+                    return
+            k += 1
+
+    def stop(self):
+        """No line any more (also when never started)."""
+        with self._lock:
+            self._stopped.set()
+
+
 class CompileNotice:
     """Says "compiling kernels (first run only, about N s)" on stderr before
     the first call of cold kernels (made when it is created, before the
     build); when coldness cannot be told, says so only if the first chunk
     of steps has not ended after FALLBACK_SECONDS.  ``done()`` (a run: at
     the end of its first chunk; check, info: after the build) keeps the
-    time a cold start took, for the next notice."""
+    time a cold start took, for the next notice.
+
+    The heartbeat (Heartbeat) then says "still compiling kernels (N s so
+    far)" every Heartbeat.SECONDS until ``done()`` or ``cancel()``: from the
+    creation when some kernels are cold or cannot be told; else from
+    ``arm()`` (the solver's start: the kernels compile per feature set, so
+    a warm kernel may still compile a new variant; if none, the first chunk
+    ends in a second or so and the heartbeat says nothing).  ``announce``
+    False (check, info): no notice, no fallback, no timing kept; only the
+    heartbeat while cold kernels compile.  ``enabled`` False (--quiet):
+    nothing at all."""
 
     FALLBACK_SECONDS = 2.0
     MIN_SECONDS = 0.5           # a cold start timed shorter is not kept
 
-    def __init__(self, kinds, enabled=True):
+    def __init__(self, kinds, enabled=True, announce=True):
         self.enabled = enabled
+        self.announce = announce
         cold = cold_kernels(kinds) if enabled else []
         self.cold = [k for k in cold if k != "?"]
         self.unknown = "?" in cold
         self.timer = None
+        #: the run's Progress, once it exists: the heartbeat writes above its bar
+        self.progress = None
+        self.heartbeat = Heartbeat(self._say)
         self.t0 = time.perf_counter()
-        if self.cold:
+        if self.cold and announce:
             n = compile_seconds(self.cold)
             print(f"rbsm_dyn: compiling kernels (first run only, about {n:.0f} s)",
                   file=sys.stderr, flush=True)
+        if enabled and (self.cold or self.unknown):
+            self.heartbeat.start()
 
-    def arm(self):
-        """The fallback: a message if the first chunk is slow (a timer thread)."""
-        if self.enabled and self.unknown and not self.cold:
-            import threading
+    def _say(self, text):
+        """A line on stderr; above the progress bar when there is one (tqdm
+        clears it, writes the line and draws it again)."""
+        bar = getattr(self.progress, "bar", None)
+        if bar is not None:
+            bar.write(text, file=sys.stderr)
+        else:
+            sys.stderr.write(text + "\n")
+            sys.stderr.flush()
 
+    def arm(self, heartbeat=True):
+        """At the solver's start: the fallback, a message if the first chunk
+        is slow (a timer thread); and the heartbeat, if not beating yet
+        (``heartbeat`` False: a solver without progress, linear and modal,
+        whose whole solve would count as compiling)."""
+        if self.enabled and self.unknown and not self.cold and self.announce:
             def say():
                 print("rbsm_dyn: compiling kernels, it seems (first run only: a minute or "
                       "so)", file=sys.stderr, flush=True)
             self.timer = threading.Timer(self.FALLBACK_SECONDS, say)
             self.timer.daemon = True
             self.timer.start()
+        if self.enabled and heartbeat:
+            self.heartbeat.start()
 
     def cancel(self):
-        """No fallback message any more."""
+        """No fallback message and no heartbeat any more."""
+        self.heartbeat.stop()
         if self.timer is not None:
             self.timer.cancel()
             self.timer = None
@@ -169,27 +252,28 @@ class CompileNotice:
     def done(self):
         """The cold kernels have been compiled: keep the time it took (once)."""
         self.cancel()
-        if self.cold:
+        if self.cold and self.announce:
             took = time.perf_counter() - self.t0
             # (only a real compilation: the kernels warm now, and it took time)
             if took >= self.MIN_SECONDS and not cold_kernels(self.cold):
                 record_compile_seconds("+".join(sorted(self.cold)), took)
-            self.cold = []
+        self.cold = []
 
 
 def compile_notice(command, case, args):
     """The compile notice of a run (CompileNotice): the build's kernels
     unless the model will be read from .rbsm_cache/, and the solver's.
-    check and info say nothing (their build compiles for seconds, and a bad
-    case gets one line: the error)."""
+    check and info say no notice (their build compiles for seconds, and a
+    bad case gets one line: the error), only the heartbeat while cold build
+    kernels compile (prepare.py calls done() after the build)."""
     from ..io import model_cache
-    if command != "run":
-        return CompileNotice([], enabled=False)
     kinds = []
     cached = (model_cache.enabled() and not getattr(args, "no_model_cache", False)
               and os.path.exists(model_cache.cache_file(case)))
     if not cached:
         kinds.append("build")
-    if command == "run":
-        kinds.append(_run_kind(case))
-    return CompileNotice(kinds, enabled=not getattr(args, "quiet", False))
+    quiet = getattr(args, "quiet", False)
+    if command != "run":
+        return CompileNotice(kinds, enabled=not quiet, announce=False)
+    kinds.append(_run_kind(case))
+    return CompileNotice(kinds, enabled=not quiet)

@@ -36,18 +36,33 @@ class Prepared:
 def prepare(command, case, args):
     """Threads, compile notice, model, preflight and warnings of run, check
     and info: a Prepared, or the exit status (2) after one line naming the
-    problem."""
-    from ..case import CaseError
+    problem.  The notice (its heartbeat) of check and info ends with the
+    build; a run's goes on into the run (run.py ends it)."""
     if args.threads is not None:
         threads = _set_threads(args.threads, "--threads")
     else:
         threads = _set_threads(getattr(case.solver, "threads", None), "solver.threads")
     notice = compile_notice(command, case, args)
     try:
+        ready = _prepared(command, case, args, threads, notice)
+    except BaseException:
+        notice.cancel()             # (no heartbeat after Ctrl-C or a traceback)
+        raise
+    if not isinstance(ready, Prepared):
+        notice.cancel()
+    return ready
+
+
+def _prepared(command, case, args, threads, notice):
+    from ..case import CaseError
+    try:
         model = _model(command, case, args)
     except CaseError as exc:
+        notice.cancel()
         print(f"rbsm_dyn: {exc}", file=sys.stderr)
         return 2
+    if command != "run":
+        notice.done()               # check, info: the heartbeat ends with the build
     if args.threads is None and getattr(case.solver, "threads", None) is None:
         # no count given: the idle cores, one for a small model (threads.py)
         import numba
@@ -60,6 +75,7 @@ def prepare(command, case, args):
     try:
         step = _preflight(case, model)
     except CaseError as exc:
+        notice.cancel()
         print(f"rbsm_dyn: {exc}", file=sys.stderr)
         return 2
     # (the case's own warnings, a unit trap: after the checks, so that a bad

@@ -39,8 +39,11 @@ def main(args, path):
         ready = prepare("run", case, args)
         if isinstance(ready, int):
             return ready
-        stop_if_interrupted()
-        return _run(case, ready.model, args, ready.threads, lock, ready.notice)
+        try:
+            stop_if_interrupted()
+            return _run(case, ready.model, args, ready.threads, lock, ready.notice)
+        finally:
+            ready.notice.cancel()
     finally:
         lock.release()
 
@@ -132,7 +135,8 @@ def _run(case, model, args, threads, lock, notice=None):
     if notice is None:
         notice = CompileNotice([_run_kind(case)], enabled=not args.quiet)
     progress.on_first = notice.done
-    notice.arm()
+    notice.progress = progress
+    notice.arm(heartbeat=case.solver.mode in ("dynamic", "static"))
     t0 = time.perf_counter()
     try:
         if case.solver.mode == "dynamic":
@@ -162,17 +166,20 @@ def _run(case, model, args, threads, lock, notice=None):
             res = modal.run(case, model, rec)
             summary = (f"{res['modes']} modes, ω_max = {res['omega_max']:.4g} rad/s")
     except explicit.RunFailed as exc:
+        notice.cancel()             # (before the failure's line)
         progress.close()
         rec.close()
         print(f"rbsm_dyn: run failed: {exc}; history kept in {out}", file=sys.stderr)
         return 1
     except CaseError as exc:
+        notice.cancel()
         progress.close()
         rec.fail(str(exc))
         rec.close()
         print(f"rbsm_dyn: {exc}", file=sys.stderr)
         return 2
     except checkpoint.Interrupted as exc:
+        notice.cancel()
         progress.close()
         rec.fail(f"{exc}; continue with --restart {out}")
         rec.close()
@@ -181,6 +188,7 @@ def _run(case, model, args, threads, lock, notice=None):
               f"--restart {out}", file=sys.stderr)
         return exc.exit_code
     except KeyboardInterrupt:
+        notice.cancel()
         progress.close()
         rec.fail("interrupted")
         rec.close()
