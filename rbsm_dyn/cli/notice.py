@@ -230,8 +230,9 @@ class CompileNotice:
     def arm(self, heartbeat=True):
         """At the solver's start: the fallback, a message if the first chunk
         is slow (a timer thread); and the heartbeat, if not beating yet
-        (``heartbeat`` False: a solver without progress, linear and modal,
-        whose whole solve would count as compiling)."""
+        (``heartbeat`` False: a solver whose first progress comes late, or
+        never: Newton's first increment, a linear or modal solve, which
+        would count as compiling)."""
         if self.enabled and self.unknown and not self.cold and self.announce:
             def say():
                 print("rbsm_dyn: compiling kernels, it seems (first run only: a minute or "

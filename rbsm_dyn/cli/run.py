@@ -136,7 +136,9 @@ def _run(case, model, args, threads, lock, notice=None):
         notice = CompileNotice([_run_kind(case)], enabled=not args.quiet)
     progress.on_first = notice.done
     notice.progress = progress
-    notice.arm(heartbeat=case.solver.mode in ("dynamic", "static"))
+    # (the heartbeat of a warm-looking run: only where the first chunk is
+    # short, not a Newton increment or a linear or modal solve)
+    notice.arm(heartbeat=_run_kind(case) in ("dynamic", "relaxation"))
     t0 = time.perf_counter()
     try:
         if case.solver.mode == "dynamic":
