@@ -14,7 +14,7 @@ What it measures (benchmarks/README.md, "time_error.py"):
         (VERIFICATION C1), at E/σ0 = 10⁴ as the tests use (VERIFICATION C3);
   - C2  the same beam with sliding clamps and normal-only yield, as in
         tests/test_plastic.py (VERIFICATION C2).
-* route: the CLI's (rbsm_dyn/__main__.py): load_case_text -> build_model
+* route: the CLI's (rbsm_dyn/cli/run.py): load_case_text -> build_model
   (timed apart: "build") -> Recorder -> solvers.explicit.run or
   solvers.relax.run, whose own wall time (time loop, or load steps incl.
   the elastic predictor, with output frames; no mesh build) is "wall";
@@ -153,7 +153,7 @@ def c_case(nz, clamped):
 
 # ----------------------------------------------------------------- running
 def run_text(text, out, threads):
-    """The CLI's path (rbsm_dyn/__main__.py::_run) without the progress bar:
+    """The CLI's path (rbsm_dyn/cli/run.py::_run) without the progress bar:
     returns (model, solver result, build s, wall s, cpu s, History).  Wall s
     is the solver's own figure: `wall_time` of explicit.run / relax.run (no
     build), assembly + solve of linear.run."""

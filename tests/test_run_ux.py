@@ -206,7 +206,8 @@ def test_cold_start_notice_and_its_timing(tmp_path, capsys, monkeypatch):
         calls.append(kinds)
         return [k for k in kinds if k == "dynamic"] if len(calls) == 1 else []
 
-    monkeypatch.setattr(cli, "cold_kernels", cold_once)
+    from rbsm_dyn.cli import notice              # (where CompileNotice looks it up)
+    monkeypatch.setattr(notice, "cold_kernels", cold_once)
     monkeypatch.setattr(cli.CompileNotice, "MIN_SECONDS", 0.0)
     path = _write(tmp_path, TINY)
     assert main([str(path), "--out", str(tmp_path / "run.h5")]) == 0
@@ -219,6 +220,85 @@ def test_cold_start_notice_and_its_timing(tmp_path, capsys, monkeypatch):
     assert main([str(path), "--out", str(tmp_path / "run.h5"), "--quiet"]) == 0
     assert "compiling" not in capsys.readouterr().err
 
+
+
+HEARTBEAT = re.compile(r"^rbsm_dyn: still compiling kernels \((\d+) s so far\)$", re.M)
+
+
+def test_heartbeat_beats_until_done_and_never_after(monkeypatch):
+    """The heartbeat of a cold notice says a line every Heartbeat.SECONDS
+    (counting them) until done(); a quiet notice says nothing; a warm one
+    starts only when armed (the solver's start)."""
+    import time
+    from rbsm_dyn.cli import notice
+    lines = []
+    monkeypatch.setattr(notice.Heartbeat, "SECONDS", 0.05)
+    monkeypatch.setattr(notice.CompileNotice, "_say", lambda self, text: lines.append(text))
+    monkeypatch.setattr(notice, "cold_kernels", lambda kinds: list(kinds))
+    monkeypatch.setattr(notice, "compile_seconds", lambda kinds: 1.0)
+    n = notice.CompileNotice(["build"], announce=False)     # (check, info)
+    time.sleep(0.4)
+    n.done()
+    said = len(lines)
+    time.sleep(0.2)
+    assert len(lines) == said >= 3, lines
+    assert [HEARTBEAT.match(x) is not None for x in lines] == [True] * said, lines
+    lines.clear()
+    notice.CompileNotice(["build"], enabled=False).arm()     # --quiet
+    monkeypatch.setattr(notice, "cold_kernels", lambda kinds: [])
+    warm = notice.CompileNotice(["dynamic"])
+    time.sleep(0.2)
+    assert lines == []
+    warm.arm()
+    time.sleep(0.2)
+    warm.cancel()
+    said = len(lines)
+    time.sleep(0.2)
+    assert len(lines) == said >= 1
+
+
+def _cold_cli(tmp_path, *args):
+    """python -m rbsm_dyn ARGS in a subprocess with an empty kernel cache
+    (XDG_CACHE_HOME, no NUMBA_CACHE_DIR inherited) and the heartbeat every
+    1 s instead of 10 (a tiny case's build compiles for a few seconds)."""
+    import os
+    import subprocess
+    import sys
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
+    env.update(XDG_CACHE_HOME=str(tmp_path / "xdg"), NUMBA_NUM_THREADS="1")
+    script = textwrap.dedent("""\
+        import sys
+        from rbsm_dyn.cli import notice
+        notice.Heartbeat.SECONDS = 1.0
+        from rbsm_dyn.__main__ import main
+        sys.exit(main(sys.argv[1:]))
+        """)
+    r = subprocess.run([sys.executable, "-c", script, *map(str, args)], env=env,
+                       capture_output=True, text=True, timeout=900)
+    # the cache was empty, and kernels were compiled into it
+    assert list((tmp_path / "xdg" / "rbsm_dyn").glob("numba-*/**/*.nbi")), r.stderr
+    return r
+
+
+def test_cold_check_says_it_is_still_compiling(tmp_path):
+    """check (and info) say no compile notice, but while a cold build
+    compiles its kernels a line every Heartbeat.SECONDS: never a long
+    silence."""
+    path = _write(tmp_path, TINY)
+    r = _cold_cli(tmp_path, "check", path)
+    assert r.returncode == 0, r.stderr
+    beats = [int(x) for x in HEARTBEAT.findall(r.stderr)]
+    assert beats and beats == list(range(1, len(beats) + 1)), r.stderr
+    assert "first run only" not in r.stderr, r.stderr
+    assert r.stdout.startswith(f"{path}: ok"), r.stdout
+
+
+def test_quiet_silences_the_heartbeat(tmp_path):
+    path = _write(tmp_path, TINY)
+    r = _cold_cli(tmp_path, "check", path, "--quiet")
+    assert r.returncode == 0, r.stderr
+    assert "compiling" not in r.stderr, r.stderr
+    assert r.stdout.startswith(f"{path}: ok"), r.stdout
 
 CASE_OF_KIND = {
     "dynamic": TINY, "newton": STATIC, "relaxation": STATIC.replace("method: newton, ", ""),
