@@ -1,5 +1,6 @@
 """python -m rbsm_dyn info CASE.yaml: counts, steps, memory and output size of
 the case, without running it."""
+from .notice import _run_kind
 from .prepare import _extra_observables, _selections, load, prepare
 
 INFO_OMEGA_MAX_BODIES = 5000   # `info` computes the exact ω_max up to this many bodies
@@ -21,6 +22,7 @@ def _info(case, model, threads, out=None):
     history a run with the same options writes (--restart, --out; default
     output.file)."""
     from ..io.estimate import estimate, format_bytes
+    from ..solvers.passes import Options
     e = estimate(case, model, extra_observables=_extra_observables(case), threads=threads)
     dt = e.dt_estimate
     print(f"case        {case.name} ({case.solver.mode})")
@@ -35,6 +37,12 @@ def _info(case, model, threads, out=None):
         if w > 0:
             print(f"exact dt    {2.0 / w:.4g} s (2/ω_max, ω_max = {w:.4g} rad/s by Lanczos; "
                   f"estimate/exact = {dt * w / 2.0:.3f})")
+    kind = _run_kind(case)
+    if kind in ("dynamic", "relaxation"):
+        # the passes of one step, chosen once per run (solvers/passes.py)
+        opt = Options.of(model, threads=threads)
+        print(f"step        {' -> '.join(opt.passes(kind))} "
+              f"({'threaded' if opt.parallel else 'one thread'})")
     if e.steps is not None:
         print(f"steps       {e.steps} (dt = {e.dt:.4g} s to end_time {case.solver.end_time:g} s)")
         print(f"frames      {e.frames} (every {e.out_every} steps)")
