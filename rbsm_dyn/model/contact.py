@@ -12,9 +12,9 @@ from dataclasses import dataclass, field
 import numba as nb
 import numpy as np
 
-from .physics.collide import N_OUT, O_C, O_K, O_KT, O_N, body_pairs, broad_phase, carry_slip, neighbour_active
-from .physics.contact_geometry import SCRATCH_ROWS, planes_from_loops
-from .physics.rotation import quat_matrix_np
+from ..physics.collide import N_OUT, O_C, O_K, O_KT, O_N, body_pairs, broad_phase, carry_slip, neighbour_active
+from ..physics.contact_geometry import SCRATCH_ROWS, planes_from_loops
+from ..physics.rotation import quat_matrix_np
 
 #: a cell whose own vertices lie outside one of its face planes by more
 #: than this times its radius is not convex: contact takes its convex hull
@@ -87,7 +87,7 @@ class ContactModel:
 
 def build_contact(case, model, setting):
     """ContactModel of a built model and its contact_setting."""
-    from .case import scene_parts
+    from ..case import scene_parts
     pairs, mu, kfac, zeta, skin, ground = setting
     mesh = model.mesh
     n = model.n_bodies
@@ -335,7 +335,7 @@ def stiffness_check(model, state, dt, est):
     as springs (k_n, k_t, k_t) at their points in their frames (n, t, t);
     the springs' refined bound (2/est)² scaled by how much the largest row
     grows.  A message when dt exceeds the step that gives, else ""."""
-    from .model import _scaled_row_sums, scaled_row_sums
+    from . import _scaled_row_sums, scaled_row_sums
     cs = state.contact
     if not len(cs.pairs):
         return ""

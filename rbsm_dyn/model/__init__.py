@@ -13,16 +13,16 @@ from dataclasses import dataclass, field
 import numba as nb
 import numpy as np
 
-from .calibration import stiffness_rule
-from .fracture_calibration import fracture_ratios
-from .mesh import block_mesh, principal_axes, spring_points, voronoi_mesh, voronoi_seeds
-from .partition import spring_schedule
-from .physics.integrate import DISPLACEMENT, FIXED, VELOCITY, refresh_all_rotations
-from .physics.laws import (BROKEN, CONTACT_OFF, CRITERIA, ELASTIC, N_PARAMS, P_COH, P_CRIT,
+from ..calibration import stiffness_rule
+from ..fracture_calibration import fracture_ratios
+from ..mesh import block_mesh, principal_axes, spring_points, voronoi_mesh, voronoi_seeds
+from ..partition import spring_schedule
+from ..physics.integrate import DISPLACEMENT, FIXED, VELOCITY, refresh_all_rotations
+from ..physics.laws import (BROKEN, CONTACT_OFF, CRITERIA, ELASTIC, N_PARAMS, P_COH, P_CRIT,
                            P_EPSCR, P_FT, P_GF, P_GS, P_MU, P_RS, P_RUPT, P_SY, P_TANPHI,
                            P_TENSION, RUPTURE_KINDS)
-from .physics.poisson import build_poisson, empty_poisson, poisson_abs_product
-from .physics.rotation import frames_from_normals, matrix_to_quat, quat_matrix_np
+from ..physics.poisson import build_poisson, empty_poisson, poisson_abs_product
+from ..physics.rotation import frames_from_normals, matrix_to_quat, quat_matrix_np
 
 IDX = np.int32
 FACES = ("xmin", "xmax", "ymin", "ymax", "zmin", "zmax")
@@ -265,7 +265,7 @@ def new_state(model):
     st.aux_p = np.zeros((7, n if on else 0))
     refresh_all_rotations(n + 1, st.body_quat, model.body_quat0, st.body_rot, st.body_dq)
     if model.contact is not None:
-        from .contact_model import new_contact_state
+        from .contact import new_contact_state
         st.contact = new_contact_state(model)
     return st
 
@@ -282,12 +282,12 @@ def build_mesh(case):
     the index of their interface (Mesh.face_interface); parts that touch
     with no interface in the case are an error unless the case's
     ``contact`` covers them (then they share no face: contact alone acts)."""
-    from .case import scene_parts
+    from ..case import scene_parts
     parts = scene_parts(case)
     if not case.parts:
         return part_mesh(case, parts[0])
-    from .mesh.interface import face_overlaps
-    from .mesh.merge import add_interface_faces, merge_meshes
+    from ..mesh.interface import face_overlaps
+    from ..mesh.merge import add_interface_faces, merge_meshes
     mesh = merge_meshes([part_mesh(case, p) for p in parts], [p.name for p in parts])
     diag = float(np.linalg.norm(mesh.box[1] - mesh.box[0]))
     try:
@@ -339,10 +339,10 @@ def part_mesh(case, part):
     to the solid (mesh/clip.py): Voronoi cells of the seeds inside the
     solid, or blocks over its bounds; a rigid part is one cell bounded by
     its solid's triangles (mesh/merge.py rigid_mesh)."""
-    from .case import part_solid
+    from ..case import part_solid
     m = part.mesh
     if m.kind == "rigid":
-        from .mesh.merge import rigid_mesh
+        from ..mesh.merge import rigid_mesh
         solid = part_solid(case, part)
         return rigid_mesh(solid.vertices, solid.triangles, solid.tri_surface,
                           solid.surface_names)
@@ -351,7 +351,7 @@ def part_mesh(case, part):
         if m.kind == "blocks":
             return block_mesh(box, tuple(m.divisions))
         return voronoi_mesh(box, m.size, seed=m.seed, min_spacing=m.min_spacing)
-    from .mesh.clip import clip_to_solid
+    from ..mesh.clip import clip_to_solid
     solid = part_solid(case, part)
     lo, hi = solid.bounds
     if m.kind == "blocks":
@@ -364,7 +364,7 @@ def part_mesh(case, part):
         if len(seeds) == 0:
             raise case.error(part.mesh_path + ("size",), "no cell seed falls inside the "
                              "solid: make the cells smaller than the solid")
-        from .mesh.voronoi import voronoi_cells
+        from ..mesh.voronoi import voronoi_cells
         cells = voronoi_cells(seeds, m.size, box)
     try:
         return clip_to_solid(cells, solid.vertices, solid.triangles, solid.tri_surface,
@@ -407,8 +407,8 @@ def _frame_normals(frame):
 def _spring_points_by_rule(ptr, xyz, normal, rule):
     """spring_points over polygons with a rule each (rule (F,) str): one
     call per distinct rule, points ordered by polygon."""
-    from .mesh._core import _gather
-    from .mesh.spring_points import SpringPoints
+    from ..mesh._core import _gather
+    from ..mesh.spring_points import SpringPoints
     rules = np.unique(rule)
     if len(rules) <= 1:
         return spring_points(ptr, xyz, normal, rules[0] if len(rules) else "moment")
@@ -503,7 +503,7 @@ def surface_ids(case, mesh, name):
     """Indices into mesh.surface_names of a named surface (case.py
     surface_indices: a box's xmin ... zmax, a geometry's naming rules, or
     <part>.<surface> in a scene of parts)."""
-    from .case import surface_indices
+    from ..case import surface_indices
     try:
         return surface_indices(case, name)
     except ValueError as exc:
@@ -542,7 +542,7 @@ def build_model(case, mesh=None):
     cen = mesh.cell_centroid
 
     # groups and materials: each part is a group of its bodies
-    from .case import scene_parts
+    from ..case import scene_parts
     parts = scene_parts(case)
     body_part = (np.zeros(n, dtype=np.int64) if mesh.cell_part is None
                  else np.asarray(mesh.cell_part, dtype=np.int64))
@@ -581,7 +581,7 @@ def build_model(case, mesh=None):
         # row serves a bonded interface, calibrated as the other part's mesh
         ref = part if part.mesh.kind != "rigid" else (deformable[0] if deformable else part)
         kind = ref.mesh.kind if ref.mesh.kind != "rigid" else "blocks"
-        from .case import part_cell_size
+        from ..case import part_cell_size
         try:
             e0, alpha, lam_aux = stiffness_rule(mat.stiffness, kind, mat.young, mat.poisson)
         except ValueError as exc:
@@ -613,7 +613,7 @@ def build_model(case, mesh=None):
             row[P_MU] = it.friction or 0.0
         elif it.material is not None:
             ref = next(p for p in parts if p.name in it.parts and p.mesh.kind != "rigid")
-            from .case import part_cell_size
+            from ..case import part_cell_size
             row = material_law_row(case.materials[it.material], ref.mesh.kind,
                                    part_cell_size(case, ref))
         else:
@@ -723,7 +723,7 @@ def build_model(case, mesh=None):
         sel = np.nonzero(np.isin(mesh.bface_side, ids))[0]
         if len(sel) == 0:
             continue
-        from .mesh._core import _gather
+        from ..mesh._core import _gather
         ptr, vid = _gather(mesh.bface_vertex_ptr, np.arange(len(mesh.bface_vertex_xyz)), sel)
         xyz = mesh.bface_vertex_xyz[vid]
         bsp = spring_points(ptr, xyz, mesh.bface_normal[sel],
@@ -935,7 +935,7 @@ def build_model(case, mesh=None):
         spring_state0=cat["state0"].astype(np.int8, copy=False),
         inelastic=bool(n_cut > 0 or np.any(cat["state0"] >= BROKEN)
                        or np.any(law_params[:, [P_CRIT, P_RUPT]] > 0)))
-    from .contact_model import build_contact, contact_setting
+    from .contact import build_contact, contact_setting
     setting = contact_setting(case, model)
     if setting is None:
         return model
@@ -1009,7 +1009,7 @@ def _row_sums(spring_bodies, arm_w_a, arm_w_b, spring_k, frames, n, out):
 def dof_row_sums(model, body_rot=None):
     """Row sums of |K| per body DOF (N, 6) of the small-strain stiffness,
     bounded by Σ_springs |B|ᵀ|K_s||B| (Gershgorin)."""
-    from .physics.rotation import quat_matrix_np
+    from ..physics.rotation import quat_matrix_np
     n = model.n_bodies
     rot = quat_matrix_np(model.body_quat0) if body_rot is None else body_rot
     sb = model.spring_bodies
@@ -1088,7 +1088,7 @@ def scaled_row_sums(model, x=None):
     Model.stable_dt); x = 1 (default): the Gershgorin row sums.  The
     auxiliary stress of the Poisson correction adds its bound
     |B|ᵀ diag(λV) |B| (physics/poisson.py) on the translations."""
-    from .physics.rotation import quat_matrix_np
+    from ..physics.rotation import quat_matrix_np
     n = model.n_bodies
     out = np.zeros((n, 6))
     xx = np.ones((n + 1, 6))
