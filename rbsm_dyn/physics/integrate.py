@@ -295,7 +295,7 @@ def run_dynamic(n_steps, step0, dt, inelastic,
     springs at x_n (summed into the body wrenches) → auxiliary stress of
     the Poisson correction if `poisson_on` (physics/poisson.py, added to
     the same wrenches) → contact forces if `contact_on` (physics/collide.py,
-    contact_args: contact_model.ContactState.args; `contact_overwrite`:
+    contact_args: model/contact.py ContactState.args; `contact_overwrite`:
     a model without springs, whose wrenches no spring pass clears) →
     bodies kick, drift.
     The spring kernel is the elastic one unless `inelastic` (yield,
