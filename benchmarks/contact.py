@@ -31,7 +31,7 @@ CONTACT = ("contact: {between: all, friction: 0.3, "
 
 
 def run(cells, steps, contact):
-    from rbsm_dyn import contact_model as cmod
+    from rbsm_dyn.model import contact as cmod
     from rbsm_dyn.case import load_case_text
     from rbsm_dyn.model import apply_initial, build_model, new_state
     from rbsm_dyn.solvers.explicit import advance, choose_dt, start_half_step

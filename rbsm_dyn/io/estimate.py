@@ -129,7 +129,7 @@ def _stable_dt(model):
     the springs', or with contact and no springs, the contact's."""
     est = float(model.stable_dt())
     if model.contact is not None and model.n_springs == 0:
-        from ..contact_model import contact_stable_dt
+        from ..model.contact import contact_stable_dt
         est = min(est, float(contact_stable_dt(model)))
     return est
 

@@ -19,7 +19,7 @@ assemblies", Mech. Mater. 22 (1996) 165–177.)
 **Surface loads** (loads on named surfaces) act on their faces, at each
 face's area centroid x_f, not at the centroid: like a support spring they
 count for their cell with the lever x_f − x_c (the reference one, as the
-load's moment about the centroid is booked fixed, model.surface_load):
+load's moment about the centroid is booked fixed, model/loads.py surface_load):
 the `extra` term of cell_stress, built by the recorder
 (solvers/output.py surface_load_levers).  A group load (at the
 centroids, lever 0) adds nothing.

@@ -1,6 +1,6 @@
 """Contact between any cells (DESIGN.md §8): broad phase, pair forces, gather.
 
-A scene that asks for contact (case ``contact``, contact_model.py) gets, on
+A scene that asks for contact (case ``contact``, model/contact.py) gets, on
 top of its springs, a penalty contact between every pair of convex cells
 that overlap and are not tied by springs (intact, or broken and still
 close: those act as contact on their own face, physics/inelastic.py), and
@@ -13,7 +13,7 @@ between cells and a fixed ground half-space.
   bodies", §6.2; Cohen et al. 1995, I-COLLIDE); candidate pairs (a < b,
   b = N for the ground) in ascending (a, b), whatever the thread count.
   Rebuilt when some cell has moved (its centroid, plus r times its turn)
-  more than half the skin since the last build (contact_model.rebuild):
+  more than half the skin since the last build (model/contact.py rebuild):
   until then no vertex has left its grown box.
 * Narrow phase (physics/contact_geometry.py): the overlap polytope P = A ∩ B
   of the two cells, its volume V, centroid c, and S_B, the outward area

@@ -69,7 +69,7 @@ one cell thick slab (ν = 0.3, 2 mm cells, 900 cells, seeds 1 and 2) the
 in-plane ν is 0.21–0.22, 0.26, 0.27–0.28, 0.28 at RCOND = 0.05, 0.1,
 0.2, 0.3 (converged from 0.2 on; in-plane E/E 1.05, the slab lattice's
 own 1.06 at ν = 0), and 0.39–0.40 at RCOND = 0.2 without the
-condensation.  The stable step (model.py scaled_row_sums) bounds K_aux
+condensation.  The stable step (model/stable_step.py scaled_row_sums) bounds K_aux
 from the same slot_gw and cell_lv as the kernel uses, so it follows the
 truncated fit and stays a bound (Kalthoff–Winkler: 9.29e-8 s estimated,
 1.275e-7 s exact; 8.30e-8 and 1.136e-7 s at ν = 0).

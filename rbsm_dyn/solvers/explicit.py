@@ -24,8 +24,8 @@ import time as _time
 import numpy as np
 
 from ..model import apply_initial, new_state
-from ..contact_model import chunk_steps as contact_chunk
-from ..contact_model import rebuild, stiffness_check
+from ..model.contact import chunk_steps as contact_chunk
+from ..model.contact import rebuild, stiffness_check
 from ..physics.arrays import Stepping
 from ..physics.collide import contact_step
 from ..physics.integrate import run_dynamic, synchronized_momenta
@@ -122,7 +122,7 @@ def choose_dt(case, model):
     est = model.stable_dt()
     if model.contact is not None and model.n_springs == 0:
         # rigid cells on contact alone: the contact's own bound
-        from ..contact_model import contact_stable_dt
+        from ..model.contact import contact_stable_dt
         est = min(est, contact_stable_dt(model))
     fixed = getattr(case.solver, "dt", None)
     if not (est > 0) or (not np.isfinite(est) and not fixed):

@@ -237,7 +237,7 @@ def surface_load_levers(case, model):
     """(cells (K,), lever ⊗ force (K, 9) [N m]) of the surface loads at
     amplitude 1, one row per loaded boundary face: the face's force F_f
     acts at its area centroid x_f, lever x_f − x_c from its cell's centroid
-    (reference), as model.surface_load books it.  For the cell stress
+    (reference), as model/loads.py surface_load books it.  For the cell stress
     (physics/cell_stress.py): None without surface loads."""
     from ..model import surface_ids, surface_load
     mesh = model.mesh

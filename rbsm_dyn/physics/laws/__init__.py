@@ -10,7 +10,7 @@ file uses (STYLE.md 0):
 A spring's law is a row of the table `law_params (n_laws, N_PARAMS)`
 (columns below), chosen per spring by `spring_law (S,) int32`; the row is
 built once per run from the materials of the spring's two bodies
-(model.py).  Stresses are per unit area [Pa]; a kernel multiplies by the
+(model/laws.py).  Stresses are per unit area [Pa]; a kernel multiplies by the
 spring's area.  Spring states (history `springs/state`): 0 elastic,
 1 yielded, 2 broken (open), 3 contact (broken and closed).
 """

@@ -12,9 +12,10 @@ from dataclasses import dataclass, field
 import numba as nb
 import numpy as np
 
-from .physics.collide import N_OUT, O_C, O_K, O_KT, O_N, body_pairs, broad_phase, carry_slip, neighbour_active
-from .physics.contact_geometry import SCRATCH_ROWS, planes_from_loops
-from .physics.rotation import quat_matrix_np
+from ..physics.collide import N_OUT, O_C, O_K, O_KT, O_N, body_pairs, broad_phase, carry_slip, neighbour_active
+from ..physics.contact_geometry import SCRATCH_ROWS, planes_from_loops
+from ..physics.rotation import quat_matrix_np
+from .stable_step import _scaled_row_sums, scaled_row_sums
 
 #: a cell whose own vertices lie outside one of its face planes by more
 #: than this times its radius is not convex: contact takes its convex hull
@@ -87,7 +88,7 @@ class ContactModel:
 
 def build_contact(case, model, setting):
     """ContactModel of a built model and its contact_setting."""
-    from .case import scene_parts
+    from ..case import scene_parts
     pairs, mu, kfac, zeta, skin, ground = setting
     mesh = model.mesh
     n = model.n_bodies
@@ -321,12 +322,11 @@ def chunk_steps(model, state, dt, gravity):
 
 def stiffness_check(model, state, dt, est):
     """The stable step with the present contacts: the Gershgorin row sums
-    of the mass-scaled stiffness (model.scaled_row_sums, Model.stable_dt)
+    of the mass-scaled stiffness (stable_step.scaled_row_sums, Model.stable_dt)
     per body DOF, the springs' (at rest) plus those of the closed contacts
     as springs (k_n, k_t, k_t) at their points in their frames (n, t, t);
     the springs' refined bound (2/est)² scaled by how much the largest row
     grows.  A message when dt exceeds the step that gives, else ""."""
-    from .model import _scaled_row_sums, scaled_row_sums
     cs = state.contact
     if not len(cs.pairs):
         return ""

@@ -1,0 +1,136 @@
+"""build_model: the Model of a validated Case, built in steps (each named
+for what it builds): parts and groups, laws, bodies, springs and faces,
+schedule, constraints, loads, Poisson correction, contact."""
+import dataclasses
+
+import numpy as np
+
+from ..partition import spring_schedule
+from ..mesh import principal_axes
+from ..physics.laws import BROKEN, P_CRIT, P_RUPT
+from ..physics.poisson import build_poisson, empty_poisson
+from ..physics.rotation import matrix_to_quat
+from .contact import build_contact, contact_setting
+from .core import IDX, Model
+from .laws import body_materials, law_slots
+from .loads import Amplitudes, body_groups, body_loads, constraints, interface_notes
+from .mesh_build import build_mesh
+from .springs import face_table, internal_springs, spring_arms, support_springs
+
+
+def build_model(case, mesh=None):
+    """Model of a validated Case (mesh built here unless given).
+
+    Raises CaseError (via case.error) for what the schema cannot see: a group
+    that selects no body, an unreachable ν, a body under two loads with
+    different histories."""
+    if mesh is None:
+        mesh = build_mesh(case)
+    parts, body_part, body_rigid, groups, body_material = _parts_and_groups(case, mesh)
+    laws = law_slots(case, parts, body_part, body_material)
+    bodies, rot0 = _bodies(mesh, laws, body_material)
+    springs, spring_face, n_cut = _springs_and_faces(case, mesh, parts, body_part, body_rigid,
+                                                     laws, rot0, bodies["body_pos0"])
+    hist = Amplitudes()
+    notes = interface_notes(case, mesh)
+    dof_kind, dof_value, dof_hist = constraints(case, mesh, groups, hist, notes)
+    fext, mext, ffol, mfol, load_hist, gravity = body_loads(case, mesh, groups, rot0, hist)
+    poisson = _poisson(case, mesh, rot0, body_rigid, body_material, laws, spring_face,
+                       springs["spring_state0"])
+    model = Model(
+        poisson=poisson, warnings=tuple(notes), **bodies, **springs,
+        dof_kind=dof_kind, dof_value=dof_value, dof_hist=dof_hist,
+        body_fext=fext, body_mext=mext, body_ffol=ffol, body_mfol=mfol,
+        body_load_hist=load_hist, gravity=gravity,
+        hist_ptr=np.asarray(hist.ptr, dtype=IDX), hist_t=np.asarray(hist.t, float),
+        hist_a=np.asarray(hist.a, float), groups=groups, materials=laws.materials, mesh=mesh,
+        n_cut=n_cut, law_params=laws.law_params,
+        inelastic=bool(n_cut > 0 or np.any(springs["spring_state0"] >= BROKEN)
+                       or np.any(laws.law_params[:, [P_CRIT, P_RUPT]] > 0)))
+    return _with_contact(case, model, notes)
+
+
+def _parts_and_groups(case, mesh):
+    """The parts, each body's part, rigidity and material, and the groups."""
+    # groups and materials: each part is a group of its bodies
+    from ..case import scene_parts
+    n = mesh.n_cells
+    parts = scene_parts(case)
+    body_part = (np.zeros(n, dtype=np.int64) if mesh.cell_part is None
+                 else np.asarray(mesh.cell_part, dtype=np.int64))
+    groups = body_groups(case, mesh, parts, body_part)
+    body_material = body_materials(case, parts, body_part, groups)
+    rigid_part = np.array([p.mesh.kind == "rigid" for p in parts])
+    body_rigid = rigid_part[body_part]
+    return parts, body_part, body_rigid, groups, body_material
+
+
+def _bodies(mesh, laws, body_material):
+    """The bodies' Model fields (mass, principal inertia and axes), and rot0 (N, 3, 3)."""
+    n = mesh.n_cells
+    dens = np.array([m["density"] for m in laws.materials])[body_material]
+    mass = dens * mesh.cell_volume
+    inertia, rot0 = principal_axes(dens[:, None, None] * mesh.cell_inertia)
+    quat0 = np.empty((n + 1, 4))
+    quat0[:n] = matrix_to_quat(rot0)
+    quat0[n] = (1.0, 0.0, 0.0, 0.0)
+    pos0 = np.vstack([mesh.cell_centroid, np.zeros((1, 3))])
+    return dict(n_bodies=n, body_mass=mass, body_inertia=inertia,
+                body_volume=mesh.cell_volume.copy(), body_material=body_material,
+                body_pos0=pos0, body_quat0=quat0), rot0
+
+
+def _springs_and_faces(case, mesh, parts, body_part, body_rigid, laws, rot0, pos0):
+    """The springs' and face table's Model fields, each spring's face, the number cut."""
+    internal, n_cut = internal_springs(case, mesh, parts, body_part, body_rigid, laws)
+    pieces = [internal] + support_springs(case, mesh, parts, body_part, laws)
+    del internal
+    cat, group_ptr, phase_ptr = _schedule(pieces, mesh.n_cells)
+    del pieces
+    sb = np.stack([cat.pop("a"), cat.pop("b")], axis=1).astype(IDX, copy=False)
+    arm_a, arm_b = spring_arms(rot0, pos0, sb, cat.pop("point"))
+    slot, table, face_ref = face_table(cat)
+    fields = dict(
+        spring_bodies=sb, spring_arm_a=np.ascontiguousarray(arm_a),
+        spring_arm_b=np.ascontiguousarray(arm_b), spring_slot=slot, spring_area=cat["area"],
+        face_frame0=table["frame"], face_k=table["kpa"], face_h=table["h"],
+        face_law=table["law"].astype(IDX, copy=False), face_ref=face_ref,
+        group_ptr=group_ptr, phase_ptr=phase_ptr,
+        spring_state0=cat["state0"].astype(np.int8, copy=False))
+    return fields, cat["face"], n_cut
+
+
+def _schedule(pieces, n):
+    """The pieces of the spring table joined, in schedule order; group_ptr, phase_ptr."""
+    # (the build's peak memory: one array's copy at a time, each piece's
+    # array freed as soon as it is joined)
+    cat = {key: np.concatenate([p.pop(key) for p in pieces]) for key in list(pieces[0])}
+    # spring order of the thread-safe schedule (partition.py): by group, then (a, b)
+    order, group_ptr, phase_ptr = spring_schedule(np.stack([cat["a"], cat["b"]], axis=1), n)
+    for key in list(cat):
+        cat[key] = cat[key][order]
+    return cat, group_ptr, phase_ptr
+
+
+def _poisson(case, mesh, rot0, body_rigid, body_material, laws, spring_face, state0):
+    """The Poisson correction's arrays (physics/poisson.py); empty without auxiliary λ."""
+    n = mesh.n_cells
+    lam_aux, alpha, e0 = laws.lam_aux, laws.alpha, laws.e0
+    # the strain fit links cells of one material across intact faces (physics/poisson.py)
+    return (build_poisson(mesh.face_cells, mesh.face_area, mesh.cell_centroid, mesh.cell_volume,
+                          lam_aux, rot0, spring_face, np.where(body_rigid, 0.0, 0.5 * alpha * e0),
+                          np.where(body_rigid, len(case.materials) + np.arange(n), body_material),
+                          state0)
+            if np.any(lam_aux > 0) else empty_poisson(n))
+
+
+def _with_contact(case, model, notes):
+    """The model with its contact (contact.py) when the scene asks for contact."""
+    setting = contact_setting(case, model)
+    if setting is None:
+        return model
+    cm = build_contact(case, model, setting)
+    if cm.n_hull:
+        notes.append(f"contact: {cm.n_hull} non-convex cell(s) meet others by their convex "
+                     "hulls")
+    return dataclasses.replace(model, contact=cm, warnings=tuple(notes))

@@ -1,0 +1,188 @@
+"""Model: the immutable structure-of-arrays of a run (bodies with real mass
+and full principal inertia, spring points between neighbouring cells,
+support springs to the ground (body index `n_bodies`), the face table,
+laws, schedule, constraints, loads), as build.py builds it.  Kernels in
+physics/ take these arrays; nothing here is read by a kernel as an object.
+
+Index type: int32 throughout (DESIGN.md §5); state float64.
+"""
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..physics.rotation import quat_matrix_np
+from .stable_step import omega_max_bound
+
+IDX = np.int32
+
+
+@dataclass(frozen=True)
+class Model:
+    """Static description of a run.  N bodies, S spring points.
+
+    Bodies (rows 0..N-1; pos0/quat0 have one more row, the ground):
+      body_mass (N,) [kg]; body_inertia (N, 3) principal moments [kg m²];
+      body_volume (N,) [m³]; body_material (N,) int32;
+      body_pos0 (N+1, 3) [m] centroids; body_quat0 (N+1, 4) principal axes.
+    Springs:
+      spring_bodies (S, 2) int32 (a, b), b == N for a support (ground);
+      spring_arm_a, spring_arm_b (S, 3) [m] arms in the principal frames
+      (the ground's frame is the world frame); spring_area (S,) [m²];
+      spring_slot (S,) int32: the row of the spring's face in the face table.
+    Face table (F rows, one per face that carries spring points, in spring
+    order: what the points of one face share, held once):
+      face_frame0 (F, 4) quaternion of the reference frame (n, s, t) with n
+      from a to b; face_k (F, 3) [N/m³] stiffness per area (k_n, k_s, k_t);
+      face_h (F,) [m] spring length; face_law (F,) int32 row of law_params;
+      face_ref (F,) int32 internal face id, or −1 − boundary face id for
+      supports.
+    Per spring point, computed when asked (output, export, assembly; the
+    kernels read the face table): spring_frame0 (S, 4), spring_k (S, 3)
+      [N/m] = face_k × area, spring_h, spring_law, spring_face (S,),
+      spring_point, spring_normal (= spring_n0) (S, 3): the rest position
+      (on body a) and the frame's n.
+    Spring laws (physics/laws/): face_law (spring_law) rows of law_params
+      (n_laws, N_PARAMS) [Pa, 1, J/m²]; row 0 is purely elastic, row 1 + k
+      is law slot k (a (material, part) pair in use: the fracture
+      calibration depends on the part's mesh kind and cell size), row
+      1 + K + k slot k without rupture (K slots; a support spring takes its
+      cell's slot: a clamp can yield at the face, where beam theory puts
+      the hinge; it breaks only when the support says `breakable: true`),
+      then one row per interface with a law of its own (contact, or bonded
+      with a material);
+      spring_state0 (S,) int8 initial state (cuts: 2, broken);
+      inelastic: bool, True when any law or cut needs the inelastic kernel.
+    Schedule (partition.py): springs are stored by group, then (a, b);
+      group_ptr (G+1,) spring ranges of the groups, phase_ptr (F+1,) group
+      ranges of the phases (groups of a phase share no body).
+    Constraints: dof_kind (N, 6) int8 (0 free, 1 fixed, 2 velocity, 3
+      displacement), dof_value (N, 6), dof_hist (N, 6) int32.
+    Loads: body_fext, body_mext (N, 3) [N, N m] world, fixed in space (dead);
+      body_ffol, body_mfol (N, 3) [N, N m] follower loads in the body's
+      principal frame (world R·f: they turn with the cell), (0, 3) when the
+      case has none; body_load_hist (N,) int32 amplitude of both;
+      gravity (3,) [m/s²]; amplitude tables hist_ptr, hist_t, hist_a.
+    Poisson correction (physics/poisson.py): poisson, a PoissonArrays of
+      per-cell least-squares strain geometry and λ_c V_c; length 0 (and
+      poisson_on False) when no material has an auxiliary λ.
+    """
+    n_bodies: int
+    body_mass: np.ndarray
+    body_inertia: np.ndarray
+    body_volume: np.ndarray
+    body_material: np.ndarray
+    body_pos0: np.ndarray
+    body_quat0: np.ndarray
+    spring_bodies: np.ndarray
+    spring_arm_a: np.ndarray
+    spring_arm_b: np.ndarray
+    spring_slot: np.ndarray
+    spring_area: np.ndarray
+    face_frame0: np.ndarray
+    face_k: np.ndarray
+    face_h: np.ndarray
+    face_law: np.ndarray
+    face_ref: np.ndarray
+    group_ptr: np.ndarray
+    phase_ptr: np.ndarray
+    dof_kind: np.ndarray
+    dof_value: np.ndarray
+    dof_hist: np.ndarray
+    body_fext: np.ndarray
+    body_mext: np.ndarray
+    body_ffol: np.ndarray
+    body_mfol: np.ndarray
+    body_load_hist: np.ndarray
+    gravity: np.ndarray
+    hist_ptr: np.ndarray
+    hist_t: np.ndarray
+    hist_a: np.ndarray
+    groups: dict
+    materials: list
+    mesh: object = field(repr=False)
+    n_cut: int = 0
+    law_params: np.ndarray = None
+    spring_state0: np.ndarray = None
+    inelastic: bool = False
+    poisson: object = None
+    warnings: tuple = ()          # messages for the user (conflicting constraints, ...)
+    contact: object = None        # contact.ContactModel, None: no contact
+
+    @property
+    def poisson_on(self):
+        """True when the auxiliary-stress pass runs (physics/poisson.py)."""
+        return self.poisson is not None and len(self.poisson.slot_cell) > 0
+
+    @property
+    def spring_frame0(self):
+        """(S, 4) reference frame quaternion of each spring point (its face's)."""
+        return self.face_frame0[self.spring_slot]
+
+    @property
+    def spring_k(self):
+        """(S, 3) [N/m] stiffness of each spring point: its face's per area × its area."""
+        return self.face_k[self.spring_slot] * self.spring_area[:, None]
+
+    @property
+    def spring_h(self):
+        """(S,) [m] length of each spring point (its face's)."""
+        return self.face_h[self.spring_slot]
+
+    @property
+    def spring_law(self):
+        """(S,) int32 law_params row of each spring point (its face's)."""
+        return self.face_law[self.spring_slot]
+
+    @property
+    def spring_face(self):
+        """(S,) int32 face of each spring point: internal face id, or −1 −
+        boundary face id for a support."""
+        return self.face_ref[self.spring_slot]
+
+    @property
+    def spring_normal(self):
+        """(S, 3) unit normal of each spring point at rest (world): the
+        first column of its frame.  Computed, not held (the kernels turn
+        each face's frame once)."""
+        return _frame_normals(self.spring_frame0)
+
+    spring_n0 = spring_normal
+
+    @property
+    def spring_point(self):
+        """(S, 3) rest position [m] of each spring point: body a's centroid
+        plus its arm (the ground's frame is the world's).  Computed, not
+        held (48 B per spring point with spring_normal; issue 15)."""
+        a = self.spring_bodies[:, 0]
+        return self.body_pos0[a] + np.einsum("sij,sj->si", quat_matrix_np(self.body_quat0[a]),
+                                             self.spring_arm_a)
+
+    @property
+    def n_springs(self):
+        return self.spring_bodies.shape[0]
+
+    @property
+    def ground(self):
+        return self.n_bodies
+
+    @property
+    def is_support(self):
+        return self.spring_bodies[:, 1] == self.n_bodies
+
+    def stable_dt(self):
+        """Stable step 2/ω_max from a bound on ω_max² = λ_max(M⁻¹K): Gershgorin
+        row sums of the mass-scaled small-strain stiffness M^-½ K M^-½, with
+        the rotations of each body in its principal axes so that M is
+        exactly diagonal (m, m, m, I1, I2, I3).  A similarity transform, so
+        the bound is safe; it includes the shear-lever coupling of every
+        spring (DESIGN.md §5) and is within a factor 2 of the true step on
+        blocks, Voronoi and sliver meshes (tests/test_linear_modal.py,
+        tests/test_stability.py); refined by omega_max_bound's sweeps."""
+        lam = omega_max_bound(self)
+        return np.inf if lam <= 0 else 2.0 / np.sqrt(lam)
+
+def _frame_normals(frame):
+    """First column n of the rotation of each frame quaternion (S, 4) -> (S, 3)."""
+    w, x, y, z = frame.T
+    return np.ascontiguousarray(np.stack([1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y + w * z),
+                                          2.0 * (x * z - w * y)], axis=1))

@@ -1,0 +1,190 @@
+"""Spring laws: the law_params row of a material (physics/laws/ columns),
+and the law table of a build (law slots: one per (material, part) pair in
+use, their rows without rupture, the interfaces' rows; Model docstring)."""
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..calibration import stiffness_rule
+from ..fracture_calibration import fracture_ratios
+from ..physics.laws import (CONTACT_OFF, CRITERIA, N_PARAMS, P_COH, P_CRIT, P_EPSCR, P_FT,
+                            P_GF, P_GS, P_MU, P_RS, P_RUPT, P_SY, P_TANPHI, P_TENSION,
+                            RUPTURE_KINDS)
+from .core import IDX
+
+
+def elastic_law_row():
+    """law_params row of a purely elastic spring that never breaks (supports)."""
+    row = np.zeros(N_PARAMS)
+    row[P_TENSION] = np.inf
+    row[P_MU] = CONTACT_OFF
+    return row
+
+
+def material_law_row(mat, mesh_kind="voronoi", cell_size=None):
+    """law_params row of a case material (physics/laws/__init__.py columns).
+    A broken face is a contact with Coulomb friction `friction` (default 0).
+    Material fracture values are mapped to spring values by the mesh kind's
+    fracture calibration (fracture_calibration.py) unless `rupture.values:
+    spring`; the mixed-mode law's shear strength defaults to 2 f_t and its
+    mode-II energy to G_f (docs/case_file.md)."""
+    row = elastic_law_row()
+    y = mat.yield_
+    if y is not None:
+        row[P_CRIT] = CRITERIA[y.criterion]
+        if y.criterion == "mohr_coulomb":
+            row[P_COH] = y.cohesion
+            row[P_TANPHI] = np.tan(np.radians(y.friction_angle))
+            row[P_TENSION] = np.inf if y.tension is None else y.tension
+        else:
+            row[P_SY] = y.stress
+    r = mat.rupture
+    if r is not None:
+        if r.strain is not None:
+            row[P_RUPT] = RUPTURE_KINDS["strain"]
+            row[P_EPSCR] = r.strain
+        else:
+            f_t, g_f = 1.0, 1.0
+            if r.values == "material":
+                f_t, g_f = fracture_ratios(mesh_kind, mat.young, r.fracture_energy,
+                                           r.tensile_strength, cell_size)
+            row[P_RUPT] = RUPTURE_KINDS[r.law or "mixed_mode"]
+            row[P_FT] = r.tensile_strength / f_t
+            row[P_GF] = r.fracture_energy / g_f
+            ratio = 2.0 if r.shear_strength is None else r.shear_strength / r.tensile_strength
+            row[P_RS] = ratio
+            g_s = r.fracture_energy if r.shear_fracture_energy is None \
+                else r.shear_fracture_energy
+            row[P_GS] = g_s / g_f
+    row[P_MU] = mat.friction or 0.0
+    return row
+
+
+def unbreakable(row):
+    """The law row without rupture (supports and symmetry planes that do not
+    break unless the case says `breakable: true`; yield stays)."""
+    row = row.copy()
+    row[P_RUPT] = 0
+    return row
+
+
+def strength_of(rows):
+    """A scalar strength per law row [Pa] to pick the weaker of two
+    materials: yield stress, cohesion, tensile strength, else infinite."""
+    rows = np.atleast_2d(rows)
+    out = np.full(len(rows), np.inf)
+    for col in (P_FT, P_COH, P_SY):
+        v = rows[:, col]
+        out = np.where(v > 0, np.minimum(out, v), out)
+    return out
+
+
+def body_materials(case, parts, body_part, groups):
+    """(N,) int32 material of each body: its part's, then its groups' (in case order)."""
+    mat_names = list(case.materials)
+    body_material = np.zeros(len(body_part), dtype=IDX)
+    for k, part in enumerate(parts):
+        if part.material is not None:
+            body_material[body_part == k] = mat_names.index(part.material)
+    for name, g in (case.groups or {}).items():
+        if getattr(g, "material", None):
+            body_material[groups[name]] = mat_names.index(g.material)
+    return body_material
+
+
+@dataclass
+class LawSlots:
+    """The law table of a build (law_slots).  law_params (n_laws, N_PARAMS)
+    (Model.law_params); n_slots K; body_slot (N,) the slot of each body;
+    iface_row: the law_params row of each interface (−1: the weaker of its
+    two cells' laws); materials: Model.materials; e0, alpha, lam_aux (N,)
+    each body's stiffness rule (calibration.py; a rigid part's e0 is
+    infinite)."""
+    law_params: np.ndarray
+    n_slots: int
+    body_slot: np.ndarray
+    iface_row: list
+    materials: list
+    e0: np.ndarray
+    alpha: np.ndarray
+    lam_aux: np.ndarray
+
+
+def law_slots(case, parts, body_part, body_material):
+    """The law table: elastic row, slot rows, slot rows without rupture, interface rows."""
+    # law slots: one per (material, part) pair in use; stiffness and
+    # fracture calibration depend on the part's mesh kind and cell size
+    n_parts = len(parts)
+    slots, body_slot = np.unique(body_material.astype(np.int64) * n_parts + body_part,
+                                 return_inverse=True)
+    body_slot = body_slot.reshape(-1)
+    law_rows = [elastic_law_row()]
+    materials, slot_e0, slot_alpha, slot_lam = _slot_laws(case, parts, slots, law_rows)
+    n_slots = len(slots)
+    # rows 1 + n_slots + k: slot k at unbreakable supports (yield, no rupture)
+    for row in law_rows[1:1 + n_slots]:
+        law_rows.append(unbreakable(row))
+    iface_row = _interface_laws(case, parts, law_rows)
+    law_params = np.array(law_rows, dtype=float)
+    return LawSlots(law_params=law_params, n_slots=n_slots, body_slot=body_slot,
+                    iface_row=iface_row, materials=materials,
+                    e0=np.array(slot_e0)[body_slot], alpha=np.array(slot_alpha)[body_slot],
+                    lam_aux=np.array(slot_lam)[body_slot])
+
+
+def _slot_laws(case, parts, slots, law_rows):
+    """Law rows (appended to law_rows) and stiffness rules of the law slots; Model.materials."""
+    n_parts = len(parts)
+    mat_names = list(case.materials)
+    deformable = [p for p in parts if p.mesh.kind != "rigid"]
+    materials = [None] * len(mat_names)
+    slot_e0, slot_alpha, slot_lam = [], [], []
+    for key in slots:
+        j, part = int(key // n_parts), parts[int(key % n_parts)]
+        name, mat = mat_names[j], case.materials[mat_names[j]]
+        # a rigid part's own springs (none) need no calibration; its law
+        # row serves a bonded interface, calibrated as the other part's mesh
+        ref = part if part.mesh.kind != "rigid" else (deformable[0] if deformable else part)
+        kind = ref.mesh.kind if ref.mesh.kind != "rigid" else "blocks"
+        from ..case import part_cell_size
+        try:
+            e0, alpha, lam_aux = stiffness_rule(mat.stiffness, kind, mat.young, mat.poisson)
+        except ValueError as exc:
+            raise case.error(("materials", name, "poisson"), str(exc)) from None
+        if materials[j] is None:
+            materials[j] = dict(name=name, density=mat.density, young=mat.young,
+                                poisson=mat.poisson, stiffness=mat.stiffness, e0=e0,
+                                alpha=alpha, lambda_aux=lam_aux)
+        if part.mesh.kind == "rigid":
+            e0, alpha, lam_aux = np.inf, 1.0, 0.0
+        slot_e0.append(e0)
+        slot_alpha.append(alpha)
+        slot_lam.append(lam_aux)
+        law_rows.append(material_law_row(mat, kind, part_cell_size(case, ref)))
+    for j, name in enumerate(mat_names):
+        if materials[j] is None:        # a material no body uses
+            mat = case.materials[name]
+            materials[j] = dict(name=name, density=mat.density, young=mat.young,
+                                poisson=mat.poisson, stiffness=mat.stiffness)
+    return materials, slot_e0, slot_alpha, slot_lam
+
+
+def _interface_laws(case, parts, law_rows):
+    """Law rows of the interfaces (appended to law_rows); each interface's row or −1."""
+    # rows of the interfaces: bonded with a material of its own, or contact
+    iface_row = []
+    for it in case.interfaces:
+        if it.law == "contact":
+            row = elastic_law_row()
+            row[P_MU] = it.friction or 0.0
+        elif it.material is not None:
+            ref = next(p for p in parts if p.name in it.parts and p.mesh.kind != "rigid")
+            from ..case import part_cell_size
+            row = material_law_row(case.materials[it.material], ref.mesh.kind,
+                                   part_cell_size(case, ref))
+        else:
+            row = None                   # the weaker of the two cells' laws
+        iface_row.append(-1 if row is None else len(law_rows))
+        if row is not None:
+            law_rows.append(row)
+    return iface_row

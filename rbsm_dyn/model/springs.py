@@ -1,0 +1,255 @@
+"""The springs of a build: spring points of the internal faces (with their
+lengths, stiffness, cuts and laws) and of the supports, their arms in the
+bodies' principal frames, and the face table (Model docstring)."""
+import numba as nb
+import numpy as np
+
+from ..calibration import stiffness_rule
+from ..mesh import spring_points
+from ..physics.laws import BROKEN, ELASTIC
+from ..physics.rotation import frames_from_normals, matrix_to_quat
+from .core import IDX
+from .laws import strength_of
+from .loads import surface_ids
+
+
+@nb.njit(cache=True)
+def _arms(rot, pos0, sb, point, arm_a, arm_b):
+    """Arms of the spring points in their bodies' principal frames:
+    arm = Rᵀ (point − centroid), for body a and body b (the ground's R is
+    the identity); a loop, no (S, 3, 3) gather."""
+    for s in range(sb.shape[0]):
+        for side in range(2):
+            i = sb[s, side]
+            d0 = point[s, 0] - pos0[i, 0]
+            d1 = point[s, 1] - pos0[i, 1]
+            d2 = point[s, 2] - pos0[i, 2]
+            out = arm_a if side == 0 else arm_b
+            for c in range(3):
+                out[s, c] = rot[i, 0, c] * d0 + rot[i, 1, c] * d1 + rot[i, 2, c] * d2
+
+
+def _frames_from_normals(normal):
+    """Quaternions of right-handed frames (n, s, t) for unit normals (S, 3)."""
+    out = np.empty((len(normal), 4))
+    frames_from_normals(np.ascontiguousarray(normal, dtype=float), out)
+    return out
+
+
+def _spring_points_by_rule(ptr, xyz, normal, rule):
+    """spring_points over polygons with a rule each (rule (F,) str): one
+    call per distinct rule, points ordered by polygon."""
+    from ..mesh._core import _gather
+    from ..mesh.spring_points import SpringPoints
+    rules = np.unique(rule)
+    if len(rules) <= 1:
+        return spring_points(ptr, xyz, normal, rules[0] if len(rules) else "moment")
+    out = []
+    for r in rules:
+        sel = np.nonzero(rule == r)[0]
+        p2, vid = _gather(ptr, np.arange(len(xyz)), sel)
+        sp = spring_points(p2, xyz[vid], normal[sel], r)
+        out.append(SpringPoints(sp.point, sp.weight, sel[sp.face]))
+    face = np.concatenate([o.face for o in out])
+    order = np.argsort(face, kind="stable")
+    return SpringPoints(np.concatenate([o.point for o in out])[order],
+                        np.concatenate([o.weight for o in out])[order], face[order])
+
+
+def internal_springs(case, mesh, parts, body_part, body_rigid, laws):
+    """The internal springs (a piece of the spring table) and how many cuts broke."""
+    # internal springs (each face with the spring-point rule of its part;
+    # an interface face, of its deformable side's part)
+    part_rule = np.array([p.mesh.spring_points for p in parts])
+    fa, fb = mesh.face_cells[:, 0], mesh.face_cells[:, 1]
+    sp = _spring_points_by_rule(mesh.face_vertex_ptr, mesh.face_vertex_xyz, mesh.face_normal,
+                                part_rule[np.where(body_rigid[fa], body_part[fb], body_part[fa])])
+    f = sp.face
+    a = mesh.face_cells[f, 0].astype(IDX)
+    b = mesh.face_cells[f, 1].astype(IDX)
+    nrm = mesh.face_normal[f]
+    h_a, h_b = _half_lengths(mesh, f, a, b, nrm, body_rigid)
+    e0, alpha = laws.e0, laws.alpha
+    # half-lengths in series (Kawai 1978: h = h1 + h2)
+    kn = 1.0 / (h_a / e0[a] + h_b / e0[b])
+    ks = 1.0 / (h_a / (alpha[a] * e0[a]) + h_b / (alpha[b] * e0[b]))
+    if mesh.face_interface is not None:
+        _interface_layers(case, parts, mesh.face_interface[f], a, b, h_a, h_b, laws, kn, ks)
+    keep = _uncut(case, mesh.cell_centroid, a, b, sp.point)
+    n_cut = int((~keep).sum())
+    law, state0 = _internal_laws(case, mesh, f, a, b, body_rigid, laws, keep)
+    internal = dict(a=a, b=b, point=sp.point, area=sp.weight, h=h_a + h_b,
+                    kpa=np.stack([kn, ks, ks], axis=1),
+                    frame=_frames_from_normals(nrm), face=f.astype(IDX), law=law, state0=state0)
+    return internal, n_cut
+
+
+def _half_lengths(mesh, f, a, b, nrm, body_rigid):
+    """Half-lengths h_a, h_b of the internal springs: centroid to face along n."""
+    cen = mesh.cell_centroid
+    fc = mesh.face_centroid[f]
+    h_a = np.einsum("ij,ij->i", fc - cen[a], nrm)
+    h_b = np.einsum("ij,ij->i", cen[b] - fc, nrm)
+    # A cell clipped around a notch tip or a hole may be non-convex, its
+    # centroid behind one of its faces (h ≤ 0: a negative spring).  Such a
+    # face takes the distance's magnitude, at least a twentieth of the cell's
+    # size V^(1/3) (convex cells always have h > 0; only slivers thinner
+    # than that are touched)
+    h_min = 0.05 * np.cbrt(mesh.cell_volume)
+    h_a = np.maximum(np.abs(h_a), h_min[a])
+    h_b = np.maximum(np.abs(h_b), h_min[b])
+    # a rigid body's side of a spring has no length (and no compliance)
+    h_a = np.where(body_rigid[a], 0.0, h_a)
+    h_b = np.where(body_rigid[b], 0.0, h_b)
+    return h_a, h_b
+
+
+def _interface_layers(case, parts, fi, a, b, h_a, h_b, laws, kn, ks):
+    """Bonded interfaces with a thickness: their layer's compliance in kn, ks (in place)."""
+    e0, alpha = laws.e0, laws.alpha
+    # a bonded interface's layer of thickness t of its own material:
+    # one more compliance in series, t/E' (normal) and t/(α E') (shear),
+    # with the material's E', α of the mesh kind (calibration.py)
+    for i, it in enumerate(case.interfaces):
+        if it.thickness is None:
+            continue
+        on = fi == i
+        ref = next(p for p in parts if p.name in it.parts and p.mesh.kind != "rigid")
+        mat = case.materials[it.material]
+        e0m, alpham, _ = stiffness_rule(mat.stiffness, ref.mesh.kind, mat.young, mat.poisson)
+        kn[on] = 1.0 / (h_a[on] / e0[a[on]] + h_b[on] / e0[b[on]] + it.thickness / e0m)
+        ka, kb = alpha[a[on]] * e0[a[on]], alpha[b[on]] * e0[b[on]]
+        ks[on] = 1.0 / (h_a[on] / ka + h_b[on] / kb + it.thickness / (alpham * e0m))
+
+
+def _uncut(case, cen, a, b, point):
+    """(S,) bool: the internal springs no cut of the case crosses."""
+    keep = np.ones(len(a), dtype=bool)
+    for j, cut in enumerate(case.cuts or []):
+        p = np.asarray(cut.point, float)
+        nn = np.asarray(cut.normal, float)
+        box = np.asarray(cut.within, float)
+        sa = (cen[a] - p) @ nn
+        sb = (cen[b] - p) @ nn
+        inside = np.all((point >= box[0]) & (point <= box[1]), axis=1)
+        keep &= ~((sa * sb < 0) & inside)
+    return keep
+
+
+def _internal_laws(case, mesh, f, a, b, body_rigid, laws, keep):
+    """Law row and initial state of each internal spring."""
+    body_slot, law_params, n_slots = laws.body_slot, laws.law_params, laws.n_slots
+    # law of each internal spring: the weaker of its two cells' slots (row 1 + slot);
+    # on an interface, the interface's row (bonded with a material, contact)
+    sa_, sb_ = body_slot[a], body_slot[b]
+    slot_strength = strength_of(law_params[1:1 + n_slots])
+    weaker = np.where(slot_strength[sa_] <= slot_strength[sb_], sa_, sb_)
+    weaker = np.where(body_rigid[a], sb_, np.where(body_rigid[b], sa_, weaker))
+    law = (1 + weaker).astype(IDX)
+    state0 = np.where(keep, ELASTIC, BROKEN).astype(np.int8)
+    if mesh.face_interface is not None:
+        fi = mesh.face_interface[f]
+        for i, it in enumerate(case.interfaces):
+            on = fi == i
+            if laws.iface_row[i] >= 0:
+                law[on] = laws.iface_row[i]
+            if it.law == "contact":
+                state0[on] = BROKEN
+    return law, state0
+
+
+def support_springs(case, mesh, parts, body_part, laws):
+    """The support springs: one piece of the spring table per support item."""
+    # support springs on domain faces (DESIGN.md §1: h = centroid-to-face distance)
+    sup = []
+    seen = set()
+    for j, item in enumerate(case.boundary or []):
+        if not hasattr(item, "face"):         # supports only
+            continue
+        key = "face" if item.face is not None else "surface"
+        name = item.face if item.face is not None else item.surface
+        ids = surface_ids(case, mesh, name)
+        if seen & set(ids):
+            raise case.error(("boundary", j, key), f"{key} {name} is supported twice")
+        seen |= set(ids)
+        fix = ("x", "y", "z") if item.fix == "all" else tuple(item.fix)
+        sel = np.nonzero(np.isin(mesh.bface_side, ids))[0]
+        if len(sel) == 0:
+            continue
+        sup.append(_support(case, mesh, parts, body_part, laws, j, item, name, fix, sel))
+    return sup
+
+
+def _support(case, mesh, parts, body_part, laws, j, item, name, fix, sel):
+    """The support springs of boundary[j] on its boundary faces sel."""
+    from ..mesh._core import _gather
+    e0, alpha = laws.e0, laws.alpha
+    ptr, vid = _gather(mesh.bface_vertex_ptr, np.arange(len(mesh.bface_vertex_xyz)), sel)
+    xyz = mesh.bface_vertex_xyz[vid]
+    bsp = spring_points(ptr, xyz, mesh.bface_normal[sel],
+                        parts[body_part[mesh.bface_cell[sel[0]]]].mesh.spring_points)
+    bf = sel[bsp.face]
+    cell = mesh.bface_cell[bf]
+    nrm_b = mesh.bface_normal[bf]
+    h = np.einsum("ij,ij->i", mesh.bface_centroid[bf] - mesh.cell_centroid[cell], nrm_b)
+    h = np.maximum(np.abs(h), 0.05 * np.cbrt(mesh.cell_volume[cell]))   # as _half_lengths
+    kk = e0[cell] / h
+    axis_of = np.argmax(np.abs(nrm_b), axis=1)
+    aligned = np.abs(nrm_b[np.arange(len(bf)), axis_of]) > 1.0 - 1e-12
+    k = np.stack([kk, alpha[cell] * kk, alpha[cell] * kk], axis=1)
+    if np.all(aligned) and len(np.unique(axis_of)) == 1:
+        frames = _axis_frames(nrm_b, int(axis_of[0]), fix, k)
+    else:
+        # a curved or slanted surface: the springs' frame is the face's
+        # own (n, s, t); only a full support is defined there
+        if set(fix) != {"x", "y", "z"}:
+            raise case.error(("boundary", j, "fix"), f"surface {name} is not normal to "
+                             "one axis: only fix: all is possible on it")
+        frames = _frames_from_normals(nrm_b)
+    return dict(a=cell.astype(IDX), b=np.full(len(cell), mesh.n_cells, dtype=IDX),
+                point=bsp.point, area=bsp.weight, h=h, kpa=k,
+                frame=frames, face=(-1 - bf).astype(IDX),
+                law=(1 + laws.body_slot[cell]
+                     + (0 if item.breakable else laws.n_slots)).astype(IDX),
+                state0=np.zeros(len(cell), dtype=np.int8))
+
+
+def _axis_frames(nrm_b, axis, fix, k):
+    """Frames of support springs on faces normal to one axis; k of the free components zeroed."""
+    # frame (n, s, t) = (±e_k, e_k+1, n × s): local components are world axes
+    e_s = np.zeros(3)
+    e_s[(axis + 1) % 3] = 1.0
+    frames = np.empty((len(nrm_b), 4))
+    for sgn in (-1.0, 1.0):
+        nvec = np.zeros(3)
+        nvec[axis] = sgn
+        on = np.sign(nrm_b[:, axis]) == sgn
+        frames[on] = matrix_to_quat(np.stack([nvec, e_s, np.cross(nvec, e_s)], axis=1))
+    comp = [axis, (axis + 1) % 3, (axis + 2) % 3]
+    for c in range(3):
+        if "xyz"[comp[c]] not in fix:
+            k[:, c] = 0.0
+    return frames
+
+
+def spring_arms(rot0, pos0, sb, point):
+    """Arms (S, 3) of the spring points in the principal frames of bodies a and b."""
+    rot_all = np.ascontiguousarray(np.concatenate([rot0, np.eye(3)[None]]))
+    arm_a = np.empty((len(sb), 3))
+    arm_b = np.empty((len(sb), 3))
+    _arms(rot_all, pos0, sb, np.ascontiguousarray(point), arm_a, arm_b)
+    return arm_a, arm_b
+
+
+def face_table(cat):
+    """The face table of the spring table cat (in schedule order): slot, table, face_ref."""
+    # the face table: what the spring points of one face share (frame,
+    # stiffness per area, length, law) is held once per face; springs point
+    # to their face's row (spring_slot).  The points of a face follow each
+    # other in the schedule (same a, b: one group, sorted stably)
+    face = cat["face"]
+    first = np.ones(len(face), dtype=bool)
+    first[1:] = face[1:] != face[:-1]
+    slot = (np.cumsum(first) - 1).astype(IDX)
+    table = {key: np.ascontiguousarray(cat.pop(key)[first]) for key in ("frame", "kpa", "h", "law")}
+    return slot, table, np.ascontiguousarray(face[first]).astype(IDX, copy=False)

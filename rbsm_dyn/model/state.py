@@ -1,0 +1,83 @@
+"""State: what changes each step, and new_state, the state a run starts
+from (Model in core.py, its contact state in contact.py)."""
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..physics.integrate import refresh_all_rotations
+from .contact import new_contact_state
+
+
+@dataclass
+class State:
+    """What changes each step.  Rows 0..N-1 are bodies, row N the ground.
+
+    body_pos (N+1, 3) [m]; body_quat (N+1, 4); body_vel (N+1, 3) [m/s] at
+    the half step; body_angmom (N+1, 3) [kg m²/s] world, half step;
+    body_rot (N+1, 3, 3), body_dq (N+1, 4) derived from body_quat;
+    body_wrench (N+1, 6) [N, N m]: sum of the spring forces and moments
+    (about the body's centre) on each body, body_support (N+1, 3) [N]: the
+    part of the force from support springs (both written by the spring
+    kernels); spring_force (S, 3) [N]: force on body a, written only when a
+    kernel is asked to (output steps); body_work, body_damp (N,) [J] accumulated;
+    body_reaction (N, 3) [N]; step (int), dt [s].
+    Inelastic springs (length S when Model.inelastic, else 0):
+    spring_state (S,) int8; spring_dp (S, 3) [m] plastic gap or slip;
+    spring_kappa (S,) [m] largest opening (strain law: last equivalent
+    strain, physics/inelastic.py); spring_dmg (S,) damage;
+    spring_wp, spring_wf (S,) [J] plastic and fracture dissipation.
+    Poisson correction scratch (length 0 unless Model.poisson_on; not
+    saved by checkpoints): aux_g (n_slots, 3) [1/m], aux_p (7, N)
+    (physics/poisson.py poisson_pass)."""
+    body_pos: np.ndarray
+    body_quat: np.ndarray
+    body_vel: np.ndarray
+    body_angmom: np.ndarray
+    body_rot: np.ndarray
+    body_dq: np.ndarray
+    body_wrench: np.ndarray
+    body_support: np.ndarray
+    spring_force: np.ndarray
+    body_work: np.ndarray
+    body_damp: np.ndarray
+    body_reaction: np.ndarray
+    spring_state: np.ndarray = None
+    spring_dp: np.ndarray = None
+    spring_kappa: np.ndarray = None
+    spring_dmg: np.ndarray = None
+    spring_wp: np.ndarray = None
+    spring_wf: np.ndarray = None
+    aux_g: np.ndarray = None
+    aux_p: np.ndarray = None
+    contact: object = None        # contact.ContactState when Model.contact
+    step: int = 0
+    dt: float = 0.0
+
+    @property
+    def time(self):
+        return self.step * self.dt
+
+
+def new_state(model):
+    """The State a run starts from: bodies at rest at their reference positions."""
+    n, s = model.n_bodies, model.n_springs
+    st = State(body_pos=model.body_pos0.copy(), body_quat=model.body_quat0.copy(),
+               body_vel=np.zeros((n + 1, 3)), body_angmom=np.zeros((n + 1, 3)),
+               body_rot=np.zeros((n + 1, 3, 3)), body_dq=np.zeros((n + 1, 4)),
+               body_wrench=np.zeros((n + 1, 6)), body_support=np.zeros((n + 1, 3)),
+               spring_force=np.zeros((s, 3)),
+               body_work=np.zeros(n), body_damp=np.zeros(n), body_reaction=np.zeros((n, 3)))
+    si = s if model.inelastic else 0
+    st.spring_state = model.spring_state0.copy() if si else np.zeros(0, dtype=np.int8)
+    st.spring_dp = np.zeros((si, 3))
+    st.spring_kappa = np.zeros(si)
+    st.spring_dmg = np.zeros(si)
+    st.spring_wp = np.zeros(si)
+    st.spring_wf = np.zeros(si)
+    on = model.poisson_on
+    st.aux_g = np.zeros((len(model.poisson.slot_cell) if on else 0, 3))
+    st.aux_p = np.zeros((7, n if on else 0))
+    refresh_all_rotations(n + 1, st.body_quat, model.body_quat0, st.body_rot, st.body_dq)
+    if model.contact is not None:
+        st.contact = new_contact_state(model)
+    return st
