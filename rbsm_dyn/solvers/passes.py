@@ -12,8 +12,6 @@ Model and State (model.py) into the kernels' containers and Options.
 """
 from dataclasses import dataclass
 
-import numba as nb
-
 from ..physics.arrays import BodyState, Bodies, ContactArrays, Loads, Springs, SpringHistory, of
 from ..physics.poisson import poisson_slots
 # spring points below which every pass runs on one thread (the same sums in
@@ -35,13 +33,18 @@ class Options:
 
     @classmethod
     def of(cls, model, threads=None):
-        """The options of a model; `threads`: the most threads the run may
-        use (default: Numba's count now)."""
-        if threads is None:
-            threads = nb.get_num_threads()
+        """The options of a model.  The threaded variants run at any thread
+        count from SERIAL_SPRINGS spring points up, one thread included:
+        there the parallel pass on one thread steps faster than the
+        one-thread variant (elastic, 106 838 spring points: 29.9 against
+        42.1 ns per spring-point-step; Numba's outlined prange body reads
+        its arrays as arguments, the serial loop through the containers),
+        so the one-thread variants serve small models only, where the
+        threaded ones' compilation (a cold start's largest cost) does not
+        pay.  `threads` is kept for callers that know the run's count."""
         return cls(inelastic=bool(model.inelastic), poisson=bool(model.poisson_on),
                    contact=model.contact is not None,
-                   parallel=model.n_springs >= SERIAL_SPRINGS and threads > 1)
+                   parallel=model.n_springs >= SERIAL_SPRINGS)
 
     def passes(self, body="dynamic"):
         """The step's passes in order, by name (for `info` and the docs)."""
@@ -86,7 +89,7 @@ def aux_stress(model, state, options):
 
 
 def contact_arrays(model, cs):
-    """The ContactArrays of a contact state cs (contact_model.ContactState)."""
+    """The ContactArrays of a contact state cs (model/contact.py ContactState)."""
     cm = model.contact
     return ContactArrays(cs.pairs, cs.slip, cs.sep, cs.out, cs.ptr, cs.entry, cs.body_friction,
                          cs.body_dwrench, cm.cell_face_ptr, cm.loop_ptr, cm.loop_xyz,
