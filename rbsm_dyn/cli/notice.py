@@ -17,10 +17,10 @@ _PACKAGE = __package__.rpartition(".")[0]
 #: cache is cold for the run when one of them has neither a version
 #: compiled in this process nor a valid cache index
 RUN_KERNELS = {
-    "build": (("model", "_arms"), ("mesh.polyhedron", "_tet_moments")),
+    "build": (("model.springs", "_arms"), ("mesh.polyhedron", "_tet_moments")),
     "dynamic": (("physics.integrate", "run_dynamic"), ("physics.integrate",
                                                         "synchronized_momenta"),
-                ("model", "_scaled_row_sums")),
+                ("model.stable_step", "_scaled_row_sums")),
     "relaxation": (("physics.relax", "run_relax"),),
     "newton": (("solvers.assembly", "_assemble"),),
     "linear": (("physics.springs", "elastic_spring_pass"),),

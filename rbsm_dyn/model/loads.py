@@ -34,7 +34,7 @@ def body_groups(case, mesh, parts, body_part):
 
 
 def surface_ids(case, mesh, name):
-    """Indices into mesh.surface_names of a named surface (case.py
+    """Indices into mesh.surface_names of a named surface (case/parts.py
     surface_indices: a box's xmin ... zmax, a geometry's naming rules, or
     <part>.<surface> in a scene of parts)."""
     from ..case import surface_indices

@@ -47,7 +47,7 @@ Features (None when a scene does not use them: the pass is not compiled)
                  pairs (P, 2) int32, slip (P, 3) [m], sep (P,) int32, out
                  (P, N_OUT), ptr (N+1,), entry (2P,) each body's pairs,
                  body_friction (N,) [J], body_dwrench (N, 6).  Geometry of
-                 the cells in their principal frames (contact_model.py):
+                 the cells in their principal frames (model/contact.py):
                  cell_face_ptr (N+1,), loop_ptr (F+1,), loop_xyz (L, 3)
                  [m], face_plane (F, 4), cell_loop_ptr (N+1,), vert_ptr
                  (N+1,), vert_xyz (V, 3) [m], radius, body_size (N,) [m],
@@ -168,7 +168,7 @@ class ContactArrays(NamedTuple):
     """Contact between any cells (physics/collide.py).  State: the
     candidate pairs (P, 2) int32, slip (P, 3) [m], sep (P,) int32, out
     (P, N_OUT), each body's pairs (ptr, entry), body_friction (N,) [J],
-    body_dwrench (N, 6).  Geometry (contact_model.ContactModel): the cells'
+    body_dwrench (N, 6).  Geometry (model/contact.py ContactModel): the cells'
     faces, loops, vertices, planes, radius, size, moduli, rigid flags, the
     ground plane; mu, kfac, zeta scalars; scratch (threads, rows, 3);
     overwrite: the model has no springs (no spring pass clears the
