@@ -89,7 +89,9 @@ def aux_stress(model, state, options):
 
 
 def contact_arrays(model, cs):
-    """The ContactArrays of a contact state cs (model/contact.py ContactState)."""
+    """The ContactArrays of a contact state cs (model/contact.py ContactState);
+    the contact pass is threaded at any size (launch_threads)."""
+    launch_threads()
     cm = model.contact
     return ContactArrays(cs.pairs, cs.slip, cs.sep, cs.out, cs.ptr, cs.entry, cs.body_friction,
                          cs.body_dwrench, cm.cell_face_ptr, cm.loop_ptr, cm.loop_xyz,
@@ -99,6 +101,25 @@ def contact_arrays(model, cs):
                          model.n_springs == 0)
 
 
+def launch_threads():
+    """Start Numba's threading layer (once; a no-op after).  A parallel
+    kernel starts it when it is compiled or loaded, but a kernel compiled
+    without parallel=True that calls threaded passes (run_dynamic,
+    spring_forces, contact_step ...) and is loaded from the cache does
+    not: its threaded loops then call an unset launcher, and the process
+    dies with SIGSEGV (measured, numba 0.68.1, empty cache: a process
+    calls elastic_spring_pass, a second compiles spring_forces over it, the
+    third loads spring_forces and crashes; with this call first it runs).
+    The code before issue 26 hid it: every run called the threaded
+    refresh_all_rotations first."""
+    from numba.np.ufunc.parallel import _launch_threads
+    _launch_threads()
+
+
 def parallel_arg(options):
-    """The kernels' `parallel` argument: None prunes the threaded variants."""
-    return True if options.parallel else None
+    """The kernels' `parallel` argument: None prunes the threaded variants;
+    True starts the threading layer first (launch_threads)."""
+    if not options.parallel:
+        return None
+    launch_threads()
+    return True
