@@ -1,5 +1,5 @@
 """`python -m rbsm_dyn info CASE.yaml`: counts, steps, frames, memory and
-output size without running (rbsm_dyn/io/estimate.py), checked against the
+output size without running (rbsm_dyn/solvers/estimate.py), checked against the
 built model and against what a run really does and writes."""
 import re
 import tracemalloc
@@ -10,7 +10,7 @@ import pytest
 import rbsm_dyn
 from rbsm_dyn.__main__ import main
 from rbsm_dyn.case import load_case
-from rbsm_dyn.io.estimate import estimate
+from rbsm_dyn.solvers.estimate import estimate
 from rbsm_dyn.model import build_model
 from rbsm_dyn.solvers import explicit
 from rbsm_dyn.solvers.output import Recorder
@@ -139,7 +139,7 @@ base = hwm()
 assert main([big, "--out", out, "--quiet", "--max-steps", "5"]) == 0
 peak = hwm()
 from rbsm_dyn.case import load_case
-from rbsm_dyn.io.estimate import estimate
+from rbsm_dyn.solvers.estimate import estimate
 from rbsm_dyn.model import build_model
 case = load_case(big)
 e = estimate(case, build_model(case))

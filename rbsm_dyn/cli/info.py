@@ -18,10 +18,10 @@ def main(args, path):
 
 def _info(case, model, threads, out=None):
     """Counts, steps, memory and output size of the case, without running
-    (rbsm_dyn/io/estimate.py says how each figure is made).  ``out``: the
+    (rbsm_dyn/solvers/estimate.py says how each figure is made).  ``out``: the
     history a run with the same options writes (--restart, --out; default
     output.file)."""
-    from ..io.estimate import estimate, format_bytes
+    from ..solvers.estimate import estimate, format_bytes
     from ..solvers.passes import Options
     e = estimate(case, model, extra_observables=_extra_observables(case), threads=threads)
     dt = e.dt_estimate

@@ -54,7 +54,7 @@ def cache_file(case):
 
 
 def _sources_hash():
-    from .. import __version__
+    from .._version import __version__
     root = Path(__file__).resolve().parent.parent
     h = hashlib.sha256(__version__.encode())
     for p in sorted(root.rglob("*.py")):

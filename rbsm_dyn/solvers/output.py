@@ -30,7 +30,7 @@ import json
 
 import numpy as np
 
-from .. import __version__
+from .._version import __version__
 from ..io.history import HistoryWriter
 from ..physics.rotation import quat_matrix_np, quat_mul_np
 from ..physics.collide import O_E

@@ -139,7 +139,7 @@ def count_frames(case, model):
     steps, dt, out_every are None outside the dynamic mode."""
     s = case.solver
     if s.mode == "dynamic":
-        from ..solvers.explicit import choose_dt
+        from .explicit import choose_dt
         dt, _ = choose_dt(case, model)
         n = int(np.ceil(s.end_time / dt - 1e-9))
         k = max(1, int(round(case.output.interval / dt)))
@@ -180,7 +180,7 @@ def _series_bytes(f: h5py.File, frames: int):
 def estimate(case, model, *, extra_observables=None, threads=1) -> Estimate:
     """Frames, output size and memory of a run of ``case`` (module docstring).
     Writes (and removes) a temporary history holding the static part."""
-    from ..solvers.output import Recorder
+    from .output import Recorder
     frames, steps, dt, every = count_frames(case, model)
     seen: set = set()
     model_bytes = array_bytes(model, seen)
