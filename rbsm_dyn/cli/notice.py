@@ -23,8 +23,8 @@ RUN_KERNELS = {
                 ("model.stable_step", "_scaled_row_sums")),
     "relaxation": (("physics.relax", "run_relax"),),
     "newton": (("solvers.assembly", "_assemble"),),
-    "linear": (("physics.springs", "elastic_spring_pass"),),
-    "modal": (("physics.springs", "elastic_spring_pass"),),
+    "linear": (("physics.passes", "spring_forces"),),
+    "modal": (("physics.passes", "spring_forces"),),
 }
 #: seconds the compilation of a cold start takes, until one has been timed on
 #: this machine (then read from compile_seconds.json in rbsm_dyn's cache
