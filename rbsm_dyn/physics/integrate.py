@@ -369,11 +369,14 @@ def run_dynamic(n_steps, step0, stepping, bodies, springs, loads, bs, hist, aux,
         bodies       kick v, L with the forces at t_n, drift x, rotate q
 
     `parallel` None: every pass on one thread (small models)."""
-    no = flag(False)
     yes = flag(True)
     for k in range(n_steps):
         t = (step0 + k) * stepping.dt
-        spring_forces(springs, bs, hist, aux, no, yes, parallel)
+        # store, substep as constants: the loop gets a spring pass compiled
+        # for them, `if store:` folded out of the per-spring loop (a run-time
+        # flag there made the step 8-22 % slower); output frames compile
+        # their own variant (two per run, as before issue 26)
+        spring_forces(springs, bs, hist, aux, False, True, parallel)
         if contact is not None:
             contact_step(contact, bodies, bs, stepping.dt, yes)
         dynamic_body_pass(t, stepping, bodies, loads, bs, parallel)

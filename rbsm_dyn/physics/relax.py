@@ -22,7 +22,6 @@ import numba as nb
 
 from .integrate import DISPLACEMENT, FIXED, FREE, refresh_rotation
 from .rotation import quat_mul
-from .arrays import flag
 from .passes import spring_forces
 
 JIT = dict(cache=True, nogil=True, fastmath=False, error_model="numpy")
@@ -204,10 +203,10 @@ def run_relax(n_iter, lam, c, reset, bodies, springs, loads, bs, hist, aux, rela
     fict_inertia = relax.fict_inertia
     body_vel = bs.body_vel
     body_angmom = bs.body_angmom
-    no = flag(False)
     for it in range(n_iter):
         first = reset and it == 0
-        spring_forces(springs, bs, hist, aux, no, no, parallel)
+        # constants: a spring pass compiled for them (physics/integrate.py)
+        spring_forces(springs, bs, hist, aux, False, False, parallel)
         relax_body_pass(lam, c, first, bodies, loads, bs, relax, parallel)
         if kind == ADAPTIVE:
             # Underwood's quotient -> ω_min², c = 2 ω_min
