@@ -71,10 +71,11 @@ they call, use arrays only (a field written inside a prange can lose its
 writes; a container passed to a call inside a prange hid the writes from
 the loop fuser); no tuple of NamedTuples (crashes, or compiles for minutes);
 classes at module level only (tests/test_kernel_interface.py checks); and
-a constant passed from compiled code to a kernel goes through flag() (a
-constant is typed Literal[bool] and compiles a variant of the callee of
-its own beside the bool of a Python caller: the elastic pass was compiled
-four times in one static run).
+a constant passed from compiled code to a kernel is typed Literal[bool]
+and compiles a variant of the callee of its own beside the bool of a
+Python caller: flag() makes it a run-time bool where one variant is
+wanted (the time loops keep store and substep constant on purpose, for the
+speed of the folded branch: docs/modules.md).
 """
 from typing import NamedTuple
 
