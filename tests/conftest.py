@@ -7,6 +7,12 @@ runs on one thread unless NUMBA_NUM_THREADS is set.  The parallel path is
 tested on its own (test_dynamics.py: identical results with 1 and 2
 threads, which sets NUMBA_NUM_THREADS=2 for its runs).
 
+The suite runs in parallel workers (pytest-xdist, pyproject.toml addopts,
+`--dist loadgroup`): each test goes to whichever worker is free, except
+that the tests of a module with a module-scoped fixture (a shipped case
+run once for several tests) stay together in one worker, so that the
+fixture runs once (pytest_collection_modifyitems below).
+
 The model cache (io/model_cache.py) is off for the suite, so that running
 the shipped cases writes nothing into cases/; test_model_cache.py turns it
 on for its own runs."""
@@ -38,3 +44,17 @@ def run_case(tmp_path):
         return rbsm_dyn.open_history(out)
 
     return run
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_collection_modifyitems(config, items):
+    """Group the tests that share a module-scoped fixture (xdist_group by
+    module; read by pytest-xdist's loadgroup scheduling after this hook)."""
+    for item in items:
+        info = getattr(item, "_fixtureinfo", None)
+        if info is None:
+            continue
+        shared = any(fd.scope in ("module", "package", "class")
+                     for defs in info.name2fixturedefs.values() for fd in defs)
+        if shared:
+            item.add_marker(pytest.mark.xdist_group(item.module.__name__))
