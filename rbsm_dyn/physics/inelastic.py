@@ -111,11 +111,12 @@ def _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
         d0, d1, d2, la0, la1, la2, lb0, lb1, lb2 = material_points(
             s, a, b, spring_arm_a, spring_arm_b, body_pos, body_rot)
         f = spring_slot[s]
-        fr = face_frame0[f]
-        if a != fa or b != fb or fr[0] != r0 or fr[1] != r1 or fr[2] != r2 or fr[3] != r3:
+        if (a != fa or b != fb or face_frame0[f, 0] != r0 or face_frame0[f, 1] != r1
+                or face_frame0[f, 2] != r2 or face_frame0[f, 3] != r3):
             fa = a
             fb = b
-            r0, r1, r2, r3 = fr[0], fr[1], fr[2], fr[3]
+            r0, r1, r2, r3 = (face_frame0[f, 0], face_frame0[f, 1], face_frame0[f, 2],
+                              face_frame0[f, 3])
             q0, q1, q2, q3, n2 = mid_increment(a, b, body_dq)
             G00, G01, G02, G10, G11, G12, G20, G21, G22 = scaled_frame(
                 q0, q1, q2, q3, n2, r0, r1, r2, r3)
@@ -130,7 +131,8 @@ def _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
         kn = face_k[f, 0] * area
         ks = face_k[f, 1] * area
         kt = face_k[f, 2] * area
-        P = law_params[face_law[f]]
+        li = face_law[f]           # the law's row (scalars read in place: a row view
+                                   # costs a reference count per spring)
         state = spring_state[s]
         fn = fs = ft = 0.0
         gn = gs = gt = lam = 0.0
@@ -140,13 +142,14 @@ def _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
             es = ds - spring_dp[s, 1]
             et = dt - spring_dp[s, 2]
             dmg = spring_dmg[s]
-            rupt = P[P_RUPT]
+            rupt = law_params[li, P_RUPT]
             if rupt == SOFTENING:
                 kappa = spring_kappa[s]
                 if en > kappa:
                     kappa = en
                     spring_kappa[s] = kappa
-                    dnew = softening_damage(kappa, kn / area, P[P_FT], P[P_GF])
+                    dnew = softening_damage(kappa, kn / area, law_params[li, P_FT],
+                                            law_params[li, P_GF])
                     if dnew > dmg:
                         # energy release rate Y = ½ k e² (undamaged springs; en > 0)
                         y = 0.5 * (kn * en * en + ks * es * es + kt * et * et)
@@ -155,7 +158,8 @@ def _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
                         spring_dmg[s] = dmg
             elif rupt == MIXED:
                 dnew, w = mixed_mode_damage(en, es, et, kn / area, ks / area, kt / area,
-                                            P[P_FT], P[P_GF], P[P_RS], P[P_GS])
+                                            law_params[li, P_FT], law_params[li, P_GF],
+                                            law_params[li, P_RS], law_params[li, P_GS])
                 if dnew > dmg:
                     # Y = −∂U/∂D, U = ½ (1 − D)(kn ⟨en⟩² + ks es² + kt et²) + ½ kn ⟨−en⟩²,
                     # taken at the product of this step's and the last step's
@@ -177,10 +181,12 @@ def _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
                 fn *= 1.0 - dmg          # a crack transmits no tension ...
             fs = (1.0 - dmg) * ks * es   # ... and less shear
             ft = (1.0 - dmg) * kt * et
-            crit = P[P_CRIT]
+            crit = law_params[li, P_CRIT]
             if crit > 0:
-                gn, gs, gt, yielded = plastic_return(int(crit), P[P_SY] * area, P[P_COH] * area,
-                                                     P[P_TANPHI], P[P_TENSION] * area,
+                gn, gs, gt, yielded = plastic_return(int(crit), law_params[li, P_SY] * area,
+                                                     law_params[li, P_COH] * area,
+                                                     law_params[li, P_TANPHI],
+                                                     law_params[li, P_TENSION] * area,
                                                      kn, ks, fn, fs, ft)
                 if yielded:
                     # (a support may hold only some components: k = 0 there)
@@ -201,11 +207,11 @@ def _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
                 eps = equivalent_strain(dn, ds, dt, face_h[f])
                 eps0 = spring_kappa[s]       # the last step's equivalent strain
                 spring_kappa[s] = eps
-                if eps >= P[P_EPSCR]:
+                if eps >= law_params[li, P_EPSCR]:
                     broken = True
                     if substep and state == ELASTIC:
                         crossed = True
-                        lam = _crossing_share(eps0 / eps, P[P_EPSCR] / eps)
+                        lam = _crossing_share(eps0 / eps, law_params[li, P_EPSCR] / eps)
             if broken:
                 # stored energy before (with damage) minus what contact keeps
                 e_in = 0.5 * (fn * en + fs * es + ft * et)
@@ -234,7 +240,7 @@ def _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
             spring_state[s] = state
         if state >= BROKEN:
             lam0 = spring_kappa[s]
-            if P[P_RUPT] == STRAIN and not crossed and lam0 != 0.0 and lam0 != np.inf:
+            if law_params[li, P_RUPT] == STRAIN and not crossed and lam0 != 0.0 and lam0 != np.inf:
                 # the share λ k e_n kept at the breaking step n does work
                 # over this step too (trapezoidal rule, _crossing_share):
                 # ½ λ k e_n·(δ − e_n), fracture energy
@@ -255,7 +261,7 @@ def _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
                 spring_kappa[s] = np.inf
             ss0 = spring_dp[s, 1]
             st0 = spring_dp[s, 2]
-            mu = P[P_MU] if spring_kappa[s] != np.inf else CONTACT_OFF
+            mu = law_params[li, P_MU] if spring_kappa[s] != np.inf else CONTACT_OFF
             fn, fs, ft, ss1, st1, closed = contact_traction(mu, kn, ks, kt, dn, ds, dt,
                                                                 ss0, st0)
             if closed:

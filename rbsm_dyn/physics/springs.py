@@ -39,14 +39,13 @@ def material_points(s, a, b, spring_arm_a, spring_arm_b, body_pos, body_rot):
     Returns (d0, d1, d2, la0, la1, la2, lb0, lb1, lb2)."""
     ax, ay, az = spring_arm_a[s, 0], spring_arm_a[s, 1], spring_arm_a[s, 2]
     bx, by, bz = spring_arm_b[s, 0], spring_arm_b[s, 1], spring_arm_b[s, 2]
-    Ra = body_rot[a]
-    Rb = body_rot[b]
-    ua0 = Ra[0, 0] * ax + Ra[0, 1] * ay + Ra[0, 2] * az
-    ua1 = Ra[1, 0] * ax + Ra[1, 1] * ay + Ra[1, 2] * az
-    ua2 = Ra[2, 0] * ax + Ra[2, 1] * ay + Ra[2, 2] * az
-    ub0 = Rb[0, 0] * bx + Rb[0, 1] * by + Rb[0, 2] * bz
-    ub1 = Rb[1, 0] * bx + Rb[1, 1] * by + Rb[1, 2] * bz
-    ub2 = Rb[2, 0] * bx + Rb[2, 1] * by + Rb[2, 2] * bz
+    # (indexed in place: a view R = body_rot[a] costs a reference count)
+    ua0 = body_rot[a, 0, 0] * ax + body_rot[a, 0, 1] * ay + body_rot[a, 0, 2] * az
+    ua1 = body_rot[a, 1, 0] * ax + body_rot[a, 1, 1] * ay + body_rot[a, 1, 2] * az
+    ua2 = body_rot[a, 2, 0] * ax + body_rot[a, 2, 1] * ay + body_rot[a, 2, 2] * az
+    ub0 = body_rot[b, 0, 0] * bx + body_rot[b, 0, 1] * by + body_rot[b, 0, 2] * bz
+    ub1 = body_rot[b, 1, 0] * bx + body_rot[b, 1, 1] * by + body_rot[b, 1, 2] * bz
+    ub2 = body_rot[b, 2, 0] * bx + body_rot[b, 2, 1] * by + body_rot[b, 2, 2] * bz
     d0 = (body_pos[b, 0] - body_pos[a, 0]) + (ub0 - ua0)
     d1 = (body_pos[b, 1] - body_pos[a, 1]) + (ub1 - ua1)
     d2 = (body_pos[b, 2] - body_pos[a, 2]) + (ub2 - ua2)
