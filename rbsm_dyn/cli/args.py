@@ -34,6 +34,10 @@ def parser():
     p.add_argument("--no-model-cache", action="store_true",
                    help="build the model even when .rbsm_cache/ beside the case holds it, and "
                         "do not write it there (also RBSM_MODEL_CACHE=0)")
+    p.add_argument("--force", action="store_true",
+                   help="run (or pass check) even when the run is estimated to take more "
+                        "than a day on this machine or to write a history larger than the "
+                        "free disk of its folder")
     return p
 
 

@@ -46,6 +46,11 @@ def _info(case, model, threads, out=None):
     if e.steps is not None:
         print(f"steps       {e.steps} (dt = {e.dt:.4g} s to end_time {case.solver.end_time:g} s)")
         print(f"frames      {e.frames} (every {e.out_every} steps)")
+        from ..solvers.estimate import format_seconds, wall_seconds
+        print(f"wall time   about {format_seconds(wall_seconds(model, e.steps, threads))} "
+              f"of stepping on {threads} thread{'s' if threads > 1 else ''} (bench's figures "
+              "for a 2-core machine, solvers/estimate.py; a run refuses more than a day "
+              "without --force)")
     else:
         print(f"frames      {e.frames}")
     print(f"memory      {format_bytes(e.memory_bytes)} (model {format_bytes(e.model_bytes)}, "

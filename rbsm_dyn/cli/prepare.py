@@ -74,6 +74,8 @@ def _prepared(command, case, args, threads, notice):
         print(f"rbsm_dyn: warning: {note}", file=sys.stderr)
     try:
         step = _preflight(case, model)
+        if command in ("run", "check") and not getattr(args, "force", False):
+            _refuse_unfinishable(case, model, args, threads, step)
     except CaseError as exc:
         notice.cancel()
         print(f"rbsm_dyn: {exc}", file=sys.stderr)
@@ -162,6 +164,53 @@ def _preflight(case, model):
         if plan[0] == "error":
             raise plan[1]
     return step
+
+
+def _refuse_unfinishable(case, model, args, threads, step):
+    """A dynamic run that cannot finish (CaseError naming the keys and the
+    estimate): a history larger than the free disk of its folder, or more
+    than a day of stepping on this machine by bench's figures
+    (solvers/estimate.py wall_seconds).  --force lets it run."""
+    import math
+    import os
+    import shutil
+    from ..solvers.estimate import (ONE_DAY, estimate, format_bytes, format_seconds,
+                                    wall_seconds)
+    if step is None:
+        return
+    dt = step[0]
+    steps = int(math.ceil(case.solver.end_time / dt - 1e-9))
+    if args.max_steps is not None:
+        steps = min(steps, int(args.max_steps))
+    every = max(1, int(round(case.output.interval / dt)))
+    frames = 1 + steps // every
+    why = []
+    out = args.restart or args.out or case.output.file
+    folder = os.path.dirname(os.path.abspath(out)) or "."
+    try:
+        free = shutil.disk_usage(folder).free
+    except OSError:
+        free = None
+    # the full estimate writes the static part of the history: only when a
+    # frame of 8 bytes per body and spring point could fill a fiftieth of the disk
+    if free is not None and frames * 8.0 * (model.n_bodies + model.n_springs) > free / 50:
+        e = estimate(case, model, extra_observables=_extra_observables(case), threads=threads)
+        size = e.static_bytes + (e.output_bytes - e.static_bytes) * min(1.0, frames / e.frames)
+        if size > free:
+            why.append(f"a history of about {format_bytes(size)} ({frames} frames, "
+                       f"output.interval {case.output.interval:g} s) against "
+                       f"{format_bytes(free)} free in {folder}")
+    wall = wall_seconds(model, steps, threads)
+    if wall > ONE_DAY:
+        why.append(f"about {format_seconds(wall)} of stepping on {threads} thread"
+                   f"{'s' if threads > 1 else ''} (bench's figures for this machine, "
+                   f"solvers/estimate.py)")
+    if why:
+        raise case.error(("solver", "end_time"),
+                         f"{case.solver.end_time:g} s is {steps} steps of dt {dt:.4g} s: "
+                         + "; ".join(why) + ".  Is end_time in the case's time unit "
+                         "(units.time)?  Shorten solver.end_time, raise output.interval, "
+                         "give --max-steps, or --force to run it anyway")
 
 
 #: builds of more cells than this announce themselves on stderr

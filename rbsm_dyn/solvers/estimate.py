@@ -43,7 +43,8 @@ import tempfile
 import h5py
 import numpy as np
 
-__all__ = ["Estimate", "estimate", "count_frames", "array_bytes", "format_bytes"]
+__all__ = ["Estimate", "estimate", "count_frames", "array_bytes", "format_bytes",
+           "wall_seconds", "format_seconds", "ONE_DAY"]
 
 #: B-tree and object headers per chunk written (HDF5, measured order)
 CHUNK_OVERHEAD = 64
@@ -54,6 +55,47 @@ CHUNK_OVERHEAD = 64
 #: meshes, 0.61-0.92 on blocks; tracemalloc puts the peak of the model
 #: build alone at 2.2 × the model's bytes)
 BUILD_PEAK_EXTRA = 1.0
+
+
+#: ns per spring-point-step of the explicit step on one thread, by the
+#: physics a run's passes include: `python -m rbsm_dyn bench` on the 2-core
+#: machine of benchmarks/results/kernel_interface.md (200 000 bodies, after
+#: the kernel interface): elastic 27.9, full physics (yield, rupture,
+#: Poisson correction) 85-105 -- the lower figures, so that a long run is
+#: never refused on a pessimistic estimate
+NS_PER_SPRING_STEP = {"elastic": 27.0, "full": 85.0}
+#: the same per body (the body pass and the output of a model with few or no
+#: springs: contact of rigid bodies) and the fixed cost of a step (the chunk
+#: loop, a frame's bookkeeping spread over its steps), measured on small models
+NS_PER_BODY_STEP = 40.0
+NS_PER_STEP = 500.0
+#: a second thread's share of a thread's speed (bench, elastic and full at
+#: 200 000 bodies: 1.8-1.9x on 2 threads)
+THREAD_GAIN = 0.85
+ONE_DAY = 86400.0
+
+
+def wall_seconds(model, steps, threads=1):
+    """Wall time of ``steps`` explicit steps of ``model`` on ``threads``
+    threads, from bench's figures above (a lower estimate: a scene with
+    contact pays its pair search on top)."""
+    from .passes import Options
+    opt = Options.of(model)
+    kind = "full" if (opt.inelastic or opt.poisson or opt.contact) else "elastic"
+    speed = 1.0 + THREAD_GAIN * (max(1, int(threads)) - 1) if opt.parallel else 1.0
+    ns = (NS_PER_SPRING_STEP[kind] * model.n_springs + NS_PER_BODY_STEP * model.n_bodies) / speed
+    return float(steps) * (ns + NS_PER_STEP) * 1e-9
+
+
+def format_seconds(t: float) -> str:
+    """A duration for a person: s, min, h or days."""
+    if t < 120:
+        return f"{t:.0f} s"
+    if t < 7200:
+        return f"{t / 60:.0f} min"
+    if t < 2 * ONE_DAY:
+        return f"{t / 3600:.1f} h"
+    return f"{t / ONE_DAY:.3g} days"
 
 
 @dataclasses.dataclass
