@@ -334,18 +334,6 @@ def test_too_stiff_contact_is_named_when_the_run_diverges(tmp_path, capsys):
     assert "contact stiffness lowers the stable step bound" in capsys.readouterr().err
 
 
-def test_restart_of_a_contact_run_is_refused(tmp_path, capsys):
-    """The contact pairs and slip memory are not in the checkpoint: a
-    restart is refused with exit 2 rather than continued without them."""
-    from rbsm_dyn.__main__ import main
-    path = tmp_path / "strike.yaml"
-    path.write_text(textwrap.dedent(STRIKE))
-    out = tmp_path / "strike.h5"
-    assert main([str(path), "--out", str(out), "--quiet"]) == 0
-    assert main([str(path), "--restart", str(out), "--quiet"]) == 2
-    assert "contact cannot be restarted" in capsys.readouterr().err
-
-
 def test_info_of_a_scene_held_by_contact_only(capsys):
     """Three free rigid blocks with contact and no springs: `info` gives
     the contact's stable step (finite) instead of failing on a zero

@@ -34,6 +34,16 @@ half step (``start_half_step`` is not applied again), and a chunk of compiled
 steps gives the same result however the steps are split, so the restarted
 run ends in the same state, bitwise, as a run never interrupted.
 Static, linear and modal runs have no checkpoints (restart: exit 2).
+
+Contact (model/contact.py ContactState) is in the checkpoint too, in each
+slot's ``contact`` group: the candidate pairs, their slip memory, the face
+that separated each and their last results, whose number changes as the
+run goes (datasets that only grow, under SWMR, with ``n_pairs`` saying how
+many rows hold), and each body's friction work and wrench increment, the
+positions and orientations of the last broad phase and the count of broad
+phases.  The broad phase and the chunks of steps depend on these alone, so
+a contact run restarts bit for bit too; only the stable-step warning of
+the contacts (a message) is made again after a restart.
 """
 import json
 import signal
@@ -48,6 +58,10 @@ ARRAYS = ("body_pos", "body_quat", "body_vel", "body_angmom", "body_rot", "body_
           "body_wrench", "body_support", "spring_force", "body_work", "body_damp",
           "body_reaction", "spring_state", "spring_dp", "spring_kappa", "spring_dmg",
           "spring_wp", "spring_wf")
+#: ContactState arrays saved: one row per candidate pair (grow as pairs come)
+CONTACT_PAIR_ARRAYS = ("pairs", "slip", "sep", "out")
+#: ... and one row per body
+CONTACT_BODY_ARRAYS = ("body_friction", "body_dwrench", "x_build", "q_build")
 #: case keys that may differ between the run and its restart
 FREE_KEYS = (("output", "file"), ("output", "checkpoint_interval"), ("output", "flush_interval"),
              ("solver", "end_time"))
@@ -89,6 +103,19 @@ def create_slots(h5file, state):
         for a, dt in (("step", np.int64), ("dt", np.float64), ("frames", np.int64),
                       ("e0", np.float64), ("time", np.float64)):
             s.create_dataset(a, data=dt(0))
+        cs = getattr(state, "contact", None)
+        if cs is not None:
+            c = s.create_group("contact")
+            for a in CONTACT_PAIR_ARRAYS:
+                arr = getattr(cs, a)
+                tail = arr.shape[1:]
+                c.create_dataset(a, shape=(0,) + tail, maxshape=(None,) + tail,
+                                 dtype=arr.dtype, chunks=(1024,) + tail)
+            for a in CONTACT_BODY_ARRAYS:
+                arr = getattr(cs, a)
+                c.create_dataset(a, data=np.zeros(arr.shape, dtype=arr.dtype))
+            c.create_dataset("n_pairs", data=np.int64(0))
+            c.create_dataset("builds", data=np.int64(0))
 
 
 class Checkpointer:
@@ -138,12 +165,62 @@ class Checkpointer:
         s["time"][()] = np.float64(state.time)
         s["frames"][()] = np.int64(self.writer.frames)
         s["e0"][()] = np.float64(e0)
+        if "contact" in s:
+            _write_contact(s["contact"], state.contact)
         f = self.writer.h5file
         f.flush()                                    # the slot is on disk ...
         g.attrs.modify("current", np.int64(SLOTS.index(slot)))
         f.flush()                                    # ... and only then current
         self.count += 1
         self.mark(state)
+
+
+def _write_contact(c, cs):
+    """The ContactState into a slot's contact group (the pair datasets grow
+    to the pairs' count when short: SWMR lets a dataset grow, not shrink)."""
+    n_pairs = len(cs.pairs)
+    for a in CONTACT_PAIR_ARRAYS:
+        ds = c[a]
+        if ds.shape[0] < n_pairs:
+            ds.resize(n_pairs, axis=0)
+        if n_pairs:
+            ds[:n_pairs] = getattr(cs, a)
+    for a in CONTACT_BODY_ARRAYS:
+        arr = getattr(cs, a)
+        if arr.size:
+            c[a][...] = arr
+    c["n_pairs"][()] = np.int64(n_pairs)
+    c["builds"][()] = np.int64(cs.builds)
+
+
+def _read_contact(c):
+    """The saved ContactState arrays of a slot's contact group (dict)."""
+    n_pairs = int(c["n_pairs"][()])
+    out = {a: c[a][:n_pairs] for a in CONTACT_PAIR_ARRAYS}
+    out.update({a: c[a][()] for a in CONTACT_BODY_ARRAYS})
+    out["builds"] = int(c["builds"][()])
+    return out
+
+
+def _restore_contact(state, model, saved, path):
+    """Put the saved contact arrays into the fresh ContactState of ``state``."""
+    from ..physics.collide import body_pairs
+    cs = state.contact
+    if saved is None:
+        raise RestartError(f"--restart {path}: the checkpoint holds no contact state (written "
+                           "by an older rbsm_dyn, which could not restart contact runs); run "
+                           "the case again")
+    for a in CONTACT_PAIR_ARRAYS + CONTACT_BODY_ARRAYS:
+        arr = getattr(cs, a)
+        got = saved[a]
+        if got.shape[1:] != arr.shape[1:] or got.dtype != arr.dtype or \
+                (a in CONTACT_BODY_ARRAYS and got.shape != arr.shape):
+            raise RestartError(f"--restart {path}: checkpoint contact array {a} has shape "
+                               f"{got.shape} {got.dtype}, the model needs {arr.shape} "
+                               f"{arr.dtype} (a different mesh or rbsm_dyn version)")
+        setattr(cs, a, np.ascontiguousarray(got))
+    cs.builds = saved["builds"]
+    cs.ptr, cs.entry = body_pairs(cs.pairs, model.n_bodies)
 
 
 # ------------------------------------------------------------------ signals
@@ -230,6 +307,7 @@ def _read_checkpoint(f, path):
     out = {a: s[a][()] for a in ARRAYS}
     for a in ("step", "dt", "time", "frames", "e0"):
         out[a] = s[a][()].item()
+    out["contact"] = _read_contact(s["contact"]) if "contact" in s else None
     case = f["parameters/case"].asstr()[()] if "parameters/case" in f else None
     frames_in_file = int(f.attrs.get("frames", 0))
     if out["frames"] > frames_in_file:
@@ -276,10 +354,6 @@ def load_for_restart(case, model, path, *, writer_alive=None):
     if case.solver.mode != "dynamic":
         raise RestartError(f"--restart: solver.mode {case.solver.mode} has no checkpoints "
                            "(only dynamic runs can be restarted; run the case again)")
-    if model.contact is not None:
-        raise RestartError("--restart: a run with contact cannot be restarted yet (its "
-                           "contact pairs and their slip memory are not in the checkpoint); "
-                           "run the case again")
     data, case_json = read_checkpoint(path, writer_alive=writer_alive)
     if case_json is not None:
         then = _drop_free(json.loads(case_json))
@@ -306,6 +380,8 @@ def load_for_restart(case, model, path, *, writer_alive=None):
                                f"{saved.shape} {saved.dtype}, the model needs {arr.shape} "
                                f"{arr.dtype} (a different mesh or rbsm_dyn version)")
         setattr(state, a, np.ascontiguousarray(saved))
+    if model.contact is not None:
+        _restore_contact(state, model, data["contact"], path)
     state.step = int(data["step"])
     state.dt = float(data["dt"])
     return state, data
