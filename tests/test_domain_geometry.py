@@ -247,3 +247,27 @@ def test_reaction_on_a_supported_surface_balances_the_load(run_case):
     h = run_case(text)
     assert h.observables["R"][-1] == pytest.approx(P, rel=1e-9)
     assert h.observables["S"][-1] == pytest.approx(0.0, abs=1e-9 * P)
+
+
+def test_check_says_when_two_items_prescribe_different_components_of_a_body(tmp_path, capsys):
+    """A corner cell in `top` (z) and in `right` (x): it takes both, and
+    check says so (issue 30: this passed without a word)."""
+    from rbsm_dyn.__main__ import main
+    text = textwrap.dedent("""
+        name: corner
+        domain: {box: [[0, 0, 0], [0.04, 0.01, 0.02]]}
+        mesh: {kind: blocks, divisions: [4, 1, 2]}
+        materials: {c: {density: 2400, young: 3.0e10, poisson: 0.0}}
+        groups:
+          top: {box: [[0, 0, 0.01], [0.04, 0.01, 0.02]]}
+          right: {box: [[0.03, 0, 0], [0.04, 0.01, 0.02]]}
+        boundary: [{face: zmin, fix: all}, {group: top, displacement: [null, null, -1.0e-5]},
+                   {group: right, displacement: [1.0e-5, null, null]}]
+        solver: {mode: static}
+    """)
+    path = tmp_path / "corner.yaml"
+    path.write_text(text)
+    assert main(["check", str(path)]) == 0
+    err = capsys.readouterr().err
+    assert "boundary[1] (z) and boundary[2] (x) share 1 body" in err, err
+    assert "boundary[0]" not in err, err        # the base shares no body with them

@@ -82,3 +82,23 @@ def test_plot_draws_energies_and_probes(beam, tmp_path, capsys):
     w, h, rgb = read_png(png)
     assert w == 800 and h > 400
     assert 0.02 < 1 - np.all(rgb > 245, axis=-1).mean() < 0.6
+
+
+def test_a_colour_the_history_cannot_give_is_named_without_quotes(beam, tmp_path, capsys):
+    """--color von_mises on a history written without cell_stress: exit 2
+    and one line saying which field to add, not a Python KeyError's repr."""
+    assert main(["render", str(beam), "--color", "von_mises",
+                 "--out", str(tmp_path / "x.png")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "add cell_stress" in err, err
+    assert err.startswith("rbsm_dyn: render: ") and "'" not in err and '"' not in err, err
+
+
+def test_plot_names_the_plastic_work_for_what_the_case_dissipates():
+    """`plastic` holds yield and crack friction (solvers/output.py): a case
+    without yield is labelled friction, one with yield says both."""
+    brittle = {"materials": {"g": {"young": 6e10, "yield": None, "rupture": {"strain": 1e-3}}}}
+    ductile = {"materials": {"s": {"young": 2e11, "yield": {"criterion": "tresca"}}}}
+    assert render_mod._plastic_label(brittle) == "friction on closed cracks"
+    assert "yield" in render_mod._plastic_label(ductile)
+    assert render_mod.PANEL_LABELS["n_broken"] == "broken spring points"

@@ -26,6 +26,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .history_layout import MissingData
+
 __all__ = ["CellGeometry", "quat_to_matrix", "rotation_vectors", "frame_state",
            "face_largest", "FACE_STATE_NAMES"]
 
@@ -150,7 +152,7 @@ class CellGeometry:
                                          "poly_vertex", "cell_poly_ptr")]
         missing = [p for p in need if p not in h.static]
         if missing:
-            raise KeyError(f"{h.path}: no cell geometry in the history (missing /"
+            raise MissingData(f"{h.path}: no cell geometry in the history (missing /"
                            + ", /".join(missing) + ")")
         s = h.static
         cvp = np.asarray(s[f"{GEOM}/cell_vertex_ptr"], np.int64)
@@ -159,7 +161,7 @@ class CellGeometry:
         elif h.position is not None and h.position0 is not None:
             x0 = np.asarray(h.position0, np.float64)
         else:
-            raise KeyError(f"{h.path}: no reference positions of the bodies")
+            raise MissingData(f"{h.path}: no reference positions of the bodies")
         q0 = s.get("particles/bodies/reference_orientation")
         if q0 is None and h.orientation is not None and h.orientation0 is not None:
             q0 = h.orientation0

@@ -20,7 +20,8 @@ other.
 from .history_layout import H5MD_VERSION
 from .history_superblock import _lookup3, clear_status_flags  # noqa: F401
 from .history_writer import HistoryWriter
-from .history_reader import (History, HistoryFileError, _open_h5, _read_dataset,  # noqa: F401
+from .history_reader import (History, HistoryFileError, MissingData, _open_h5,  # noqa: F401
+                             _read_dataset,
                              frame_indices, history_to_xarray, input_problem, open_history,
                              require_rbsm_history)
 

@@ -46,3 +46,12 @@ def _chunks(tail_shape: tuple[int, ...], itemsize: int) -> tuple[int, ...]:
         rest = itemsize * math.prod(tail[i + 1:])
         tail[i] = max(1, min(tail[i], _MAX_CHUNK_BYTES // max(1, rest)))
     return (rows, *tail)
+
+
+class MissingData(KeyError):
+    """What a command needs is not in the history (a field not written):
+    a KeyError whose text is the message itself (a plain KeyError prints
+    its message in quotes)."""
+
+    def __str__(self):
+        return str(self.args[0]) if self.args else ""

@@ -19,7 +19,7 @@ from typing import Any
 import h5py
 import numpy as np
 
-from .history_layout import _RESERVED
+from .history_layout import _RESERVED, MissingData  # noqa: F401
 from .history_superblock import _hdf5_signature_at
 
 __all__ = ["History", "open_history", "frame_indices", "history_to_xarray", "HistoryFileError",

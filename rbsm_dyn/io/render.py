@@ -57,7 +57,7 @@ import numpy as np
 
 from .export import STRESS_MEASURES, cells_mesh, faces_mesh, run_folder, spring_damage
 from .geometry import frame_state
-from .history import input_problem, open_history, require_rbsm_history
+from .history import MissingData, input_problem, open_history, require_rbsm_history
 
 __all__ = ["render", "build_plotter", "plot", "auto_scale", "nice_length", "RendererUnavailable",
            "check_renderer", "COLORS", "RENDER_DESCRIPTION", "PLOT_DESCRIPTION"]
@@ -231,7 +231,7 @@ def _cell_scalars(color, cells, true_cells, umag, path, h):
         clim = (-top, top) if top > 0 else (-1.0, 1.0)
         return label, label, "coolwarm", clim, "point"
     if h.cell_stress is None:
-        raise KeyError(f"{path}: no cell stress in the history (add cell_stress to "
+        raise MissingData(f"{path}: no cell stress in the history (add cell_stress to "
                        "output.fields) for --color " + color)
     label = f"{_COLOR_LABELS[color]} [Pa]"
     val = np.asarray(cells.cell_data[color])
@@ -285,11 +285,11 @@ def build_plotter(path, *, frame: int = -1, scale: float | None = None,
     require_rbsm_history(path)
     h = open_history(path, frames=frame)
     if h.position is None:
-        raise KeyError(f"{path}: no body positions in the history (output.fields)")
+        raise MissingData(f"{path}: no body positions in the history (output.fields)")
     fi = int(h.frame_index[0])
     dmg = spring_damage(h, 0)
     if color == "damage" and dmg is None:
-        raise KeyError(f"{path}: no spring damage in the history (add spring_damage to "
+        raise MissingData(f"{path}: no spring damage in the history (add spring_damage to "
                        "output.fields) for --color damage")
     geom = h.geometry()
     true_cells = cells_mesh(h, 0, geom, scale=1.0)
@@ -494,6 +494,21 @@ ENERGIES = (("kinetic", "kinetic"), ("strain", "strain"), ("plastic", "plastic")
             ("fracture", "fracture"), ("damping", "damping"),
             ("contact_friction", "contact friction"),
             ("external_work", "external work"))
+#: the y label of an observable's own panel where its name alone misleads:
+#: n_broken counts spring points (a face has several; `render` counts faces)
+PANEL_LABELS = {"n_broken": "broken spring points"}
+
+
+def _plastic_label(case):
+    """The legend of the `plastic` observable: the work of yield and of
+    friction on closed cracks (solvers/output.py), named for what the case
+    can dissipate there -- no material with a yield key (interfaces take
+    theirs from a material): friction on cracks alone."""
+    mats = (case.get("materials") or {}).values()
+    yields = any(isinstance(m, dict) and m.get("yield") for m in mats)
+    return "plastic (yield + friction on cracks)" if yields else "friction on closed cracks"
+
+
 NOT_PROBES = {name for name, _ in ENERGIES} | {"n_broken", "crack_area", "residual",
                                                "frequency"}
 
@@ -613,7 +628,7 @@ def plot(path, *, out=None, max_probes: int = 6) -> dict:
     ax = axes[0]
     for key, label in ENERGIES:
         if key in obs and np.any(obs[key][1] != 0):
-            ax.plot(*obs[key], label=label)
+            ax.plot(*obs[key], label=_plastic_label(case) if key == "plastic" else label)
     # static and linear runs book the work of the loads along the load path
     # (docs/history.md): at each converged step it equals strain +
     # dissipation, so the balance means what it does in a dynamic run
@@ -628,7 +643,7 @@ def plot(path, *, out=None, max_probes: int = 6) -> dict:
     for ax, name in zip(axes[1:], probes + extra):
         unit = units.get(name, "1")
         ax.plot(*obs[name], color="C0")
-        ax.set_ylabel(f"{name} [{unit}]" if unit != "1" else name)
+        ax.set_ylabel(PANEL_LABELS.get(name) or (f"{name} [{unit}]" if unit != "1" else name))
         ax.grid(alpha=0.3)
     axes[-1].set_xlabel(xlabel)
     fig.tight_layout()

@@ -143,7 +143,29 @@ def constraints(case, mesh, groups, hist, notes):
                 dof_kind[ids, c] = kind
                 dof_value[ids, c] = vec[c]
                 dof_hist[ids, c] = h
+    _shared_bodies(dof_item, notes)
     return dof_kind, dof_value, dof_hist
+
+
+def _shared_bodies(dof_item, notes):
+    """A note for two boundary items that prescribe different components of
+    the same bodies (a corner cell in `top` with z and in `right` with x):
+    each body takes the components of both, which is what a corner needs,
+    but said, so that an overlap of groups that was not meant is seen."""
+    hi = dof_item.max(axis=1)
+    lo = np.where(dof_item >= 0, dof_item, hi[:, None]).min(axis=1)
+    rows, counts = np.unique(dof_item[lo != hi], axis=0, return_counts=True)
+    seen = {}
+    for row, count in zip(rows, counts):
+        items = sorted({int(k) for k in row if k >= 0})
+        for a in range(len(items)):
+            for b in range(a + 1, len(items)):
+                seen[(items[a], items[b])] = seen.get((items[a], items[b]), 0) + int(count)
+    for (j, k), count in sorted(seen.items()):
+        cj = ", ".join(COMPONENTS[c] for c in range(6) if np.any(dof_item[:, c] == j))
+        ck = ", ".join(COMPONENTS[c] for c in range(6) if np.any(dof_item[:, c] == k))
+        notes.append(f"boundary[{j}] ({cj}) and boundary[{k}] ({ck}) share {count} "
+                     f"bod{'y' if count == 1 else 'ies'}: each takes the components of both")
 
 
 def body_loads(case, mesh, groups, rot0, hist):
