@@ -300,3 +300,17 @@ def test_on_a_tie_the_view_looks_across_the_displacements():
     assert abs(direction[1]) == 1
     direction, _ = render_mod._view(lo, [1.0, 0.1, 0.2], sideways)   # no tie: thinnest
     assert abs(direction[1]) == 1
+
+
+def test_the_view_is_isometric_for_a_solid_and_along_the_thin_side_for_a_plane_model():
+    """--view auto: a cube of 10 × 10 × 10 cells is seen isometrically (a
+    slab's cracked underside is no longer hidden by a view from the top);
+    a slab one cell thick in y (a plane model) along y; -z from below."""
+    iso, up = render_mod._view([0, 0, 0], [1, 1, 1], None, "auto", cell_size=0.1)
+    assert np.allclose(iso, np.array([1, -1, 1]) / np.sqrt(3)) and up[2] == 1
+    side, up = render_mod._view([0, 0, 0], [1, 0.05, 1], None, "auto", cell_size=0.05)
+    assert abs(side[1]) == 1 and up[2] == 1
+    below, up = render_mod._view([0, 0, 0], [1, 1, 0.2], None, "-z", cell_size=0.05)
+    assert below[2] == -1 and up[1] == 1
+    with pytest.raises(ValueError, match="--view"):
+        render_mod._view([0, 0, 0], [1, 1, 1], None, "top")

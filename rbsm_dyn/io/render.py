@@ -2,6 +2,7 @@
 energies, frequencies and probes (plot).
 
     python -m rbsm_dyn render RUN.h5 [--frame K] [--out PNG] [--scale F] [--size W H] [--color C]
+                                     [--view V]
     python -m rbsm_dyn plot RUN.h5 [--out PNG]
 
 ``render`` draws frame K (default the last) off-screen with pyvista: the
@@ -22,9 +23,12 @@ picture.  Faces on which a spring broke during the run are drawn red
 from the start (a ``cuts`` notch, contact interfaces between parts: spring
 state >= 2 in frame 0) black, yielded faces orange.  Every picture has an
 axes triad (lower left) and a length scale bar under the cells (of the
-undeformed lengths; a round 1, 2 or 5 × 10^n m).  The view looks along the thinnest side of the domain (y
-on a tie: the side along which the cells moved least, so that a mode
-bending sideways is seen across), z up.  A modal history's picture names
+undeformed lengths; a round 1, 2 or 5 × 10^n m).  ``--view`` says where
+the camera looks from: ``iso`` (from +x, −y, +z), an axis side (``+z``
+above, ``-z`` below ...), or ``auto`` (the default): isometric for a
+solid scene, and for one at most 1.5 cells thick along its thinnest side
+(a plane model) along that side (y on a tie: the side along which the
+cells moved least, so that a mode bending sideways is seen across), z up.  A modal history's picture names
 the mode and its frequency, a static one's the load factor.
 
 ``plot`` draws the energies (kinetic, strain, dissipated, external work and
@@ -170,12 +174,36 @@ def _fmt_scale(s: float) -> str:
     return f"{s:g}"
 
 
-def _view(box_min, box_max, displacement=None):
-    """Camera direction (from the focal point to the camera) and up vector:
-    along the thinnest side, z up.  On a tie, the side along which the
-    displacements (N, 3), when given, are smallest (so that a cantilever's
-    mode bending sideways is seen from above, not end-on), else y first."""
+#: --view: auto (below), iso (from +x, -y, +z: x to the right, z up), or the
+#: side the camera looks from (+z: from above; -z: from below, where a slab's
+#: tension face is)
+VIEWS = ("auto", "iso", "+x", "-x", "+y", "-y", "+z", "-z")
+#: auto: a scene at most this many cells thick along its thinnest side (a
+#: plane model, a one-cell slab) is seen along that side, others isometric
+PLANE_CELLS = 1.5
+
+
+def _view(box_min, box_max, displacement=None, view="auto", cell_size=None):
+    """Camera direction (from the focal point to the camera) and up vector
+    of ``view`` (VIEWS).  auto: isometric, unless the scene is at most
+    PLANE_CELLS cells of ``cell_size`` thick along its thinnest side (or
+    ``cell_size`` is None): then along the thinnest side, z up.  On a tie,
+    the side along which the displacements (N, 3), when given, are
+    smallest (so that a cantilever's mode bending sideways is seen from
+    above, not end-on), else y first."""
     ext = np.asarray(box_max) - np.asarray(box_min)
+    if view not in VIEWS:
+        raise ValueError(f"--view must be one of {', '.join(VIEWS)} (got {view!r})")
+    if view == "auto" and cell_size is not None and ext.min() > PLANE_CELLS * cell_size:
+        view = "iso"
+    if view == "iso":
+        return np.array([1.0, -1.0, 1.0]) / np.sqrt(3.0), np.array([0.0, 0.0, 1.0])
+    if view != "auto":
+        axis = "xyz".index(view[1])
+        direction = np.zeros(3)
+        direction[axis] = 1.0 if view[0] == "+" else -1.0
+        up = np.array([0.0, 0.0, 1.0]) if axis != 2 else np.array([0.0, 1.0, 0.0])
+        return direction, up
     order = [1, 0, 2]                       # prefer y, then x, then z
     thin = float(ext.min())
     tied = [a for a in order if ext[a] <= thin * (1 + 1e-9)]
@@ -266,7 +294,7 @@ def _frame_label(h, case, mode):
 
 def build_plotter(path, *, frame: int = -1, scale: float | None = None,
                   window_size=(1600, 800), show_edges: bool = True,
-                  color: str = "displacement"):
+                  color: str = "displacement", view: str = "auto"):
     """The picture of frame ``frame`` of history ``path``, ready to be
     drawn: ``(plotter, info)`` (off-screen pyvista Plotter; call
     ``plotter.screenshot(png)`` and ``plotter.close()``).  ``info`` holds
@@ -274,6 +302,8 @@ def build_plotter(path, *, frame: int = -1, scale: float | None = None,
     label)."""
     if color not in COLORS:
         raise ValueError(f"--color must be one of {', '.join(COLORS)} (got {color!r})")
+    if view not in VIEWS:
+        raise ValueError(f"--view must be one of {', '.join(VIEWS)} (got {view!r})")
     if len(window_size) != 2 or not all(SIZE_MIN <= int(v) <= SIZE_MAX for v in window_size):
         raise ValueError(f"--size W H must be between {SIZE_MIN} and {SIZE_MAX} pixels each "
                          f"(got {' '.join(str(v) for v in window_size)})")
@@ -378,7 +408,9 @@ def build_plotter(path, *, frame: int = -1, scale: float | None = None,
             f"displacement magnified x {_fmt_scale(scale)} (largest: {max_u:.3g} m)"
             + (f"; colour: {label}" if color != "displacement" else "") + "\n" + legend)
     pl.add_text(text, position="upper_left", font_size=11, color="black")
-    direction, up = _view(box_min, box_max, true_cells.point_data["displacement"])
+    cell_size = (float(np.prod(np.maximum(box_max - box_min, 0.0))) / max(h.n_bodies, 1)) ** (1 / 3)
+    direction, up = _view(box_min, box_max, true_cells.point_data["displacement"], view,
+                          cell_size)
     centre = 0.5 * (box_min + box_max)
     pl.camera.focal_point = centre
     pl.camera.position = centre + direction * size * 3
@@ -467,7 +499,7 @@ def _add_scale_bar(pl, corners, focal, right, up, direction, ps, window_size, w,
 
 def render(path, *, frame: int = -1, out=None, scale: float | None = None,
            window_size=(1600, 800), show_edges: bool = True,
-           color: str = "displacement") -> dict:
+           color: str = "displacement", view: str = "auto") -> dict:
     """Draw frame ``frame`` of history ``path`` to a PNG (module docstring),
     the cells coloured by ``color`` (one of COLORS).
     Returns ``{"out", "frame", "time", "scale", "max_displacement",
@@ -477,7 +509,7 @@ def render(path, *, frame: int = -1, out=None, scale: float | None = None,
     max) of the colour bar; n_broken_faces counts the notch too;
     n_damaged_faces: softening, not broken, with --color damage)."""
     pl, info = build_plotter(path, frame=frame, scale=scale, window_size=window_size,
-                             show_edges=show_edges, color=color)
+                             show_edges=show_edges, color=color, view=view)
     try:
         path = Path(path)
         out = (Path(out) if out is not None
@@ -744,6 +776,11 @@ def add_arguments(p) -> None:
                         "von_mises, principal_max, principal_mid, principal_min; or draw them "
                         "grey with their faces coloured by damage (damage: needs the "
                         "spring_damage field)")
+    p.add_argument("--view", choices=VIEWS, default="auto", metavar="V",
+                   help="where the camera looks from: iso (isometric, from +x -y +z, z up), "
+                        "+x, -x, +y, -y, +z (above), -z (below: a slab's tension face); "
+                        "auto (the default): iso, or along the thinnest side for a scene "
+                        "one cell thick there (a plane model)")
     p.add_argument("--quiet", action="store_true", help="print nothing on success")
 
 
@@ -764,7 +801,8 @@ def main(args) -> int:
         return 2
     try:
         res = render(args.history, frame=args.frame, out=args.out, scale=args.scale,
-                     window_size=tuple(args.size), color=getattr(args, "color", "displacement"))
+                     window_size=tuple(args.size), color=getattr(args, "color", "displacement"),
+                     view=getattr(args, "view", "auto"))
     except RendererUnavailable as exc:
         print(f"rbsm_dyn: render: {exc}", file=sys.stderr)
         return 1
