@@ -3,6 +3,7 @@ meshes merged with their interfaces' faces (build_mesh)."""
 import numpy as np
 
 from ..mesh import block_mesh, voronoi_mesh, voronoi_seeds
+from ..mesh.cut_seeds import mirror_across_cuts
 
 
 def build_mesh(case):
@@ -81,7 +82,10 @@ def part_mesh(case, part):
         box = np.asarray(part.geometry.box, dtype=float)
         if m.kind == "blocks":
             return block_mesh(box, tuple(m.divisions))
-        return voronoi_mesh(box, m.size, seed=m.seed, min_spacing=m.min_spacing)
+        seeds = voronoi_seeds(box, m.size, seed=m.seed, min_spacing=m.min_spacing)
+        # a cut's plane made of cell faces (mesh/cut_seeds.py)
+        seeds = mirror_across_cuts(seeds, case.cuts, m.size, m.min_spacing, box)
+        return voronoi_mesh(box, m.size, seeds=seeds)
     from ..mesh.clip import clip_to_solid
     solid = part_solid(case, part)
     lo, hi = solid.bounds
@@ -91,6 +95,7 @@ def part_mesh(case, part):
         # a margin of half a cell: no side of the box on the solid's surface
         box = np.array([lo - 0.5 * m.size, hi + 0.5 * m.size])
         seeds = voronoi_seeds(box, m.size, seed=m.seed, min_spacing=m.min_spacing)
+        seeds = mirror_across_cuts(seeds, case.cuts, m.size, m.min_spacing, box)
         seeds = seeds[solid.contains(seeds)]
         if len(seeds) == 0:
             raise case.error(part.mesh_path + ("size",), "no cell seed falls inside the "
