@@ -153,6 +153,17 @@ def test_elastica_under_a_dead_tip_load(run_case):
     assert -h.observables["u"][-1] / LT == pytest.approx(0.55500, rel=5e-3)
 
 
+def test_elastica_with_the_default_static_settings(run_case):
+    """The same elastica written without solver.method (issue 30: dynamic
+    relaxation, the old default, failed at load step 2 after 200 000
+    iterations): Newton by default, v/L and (L − x)/L within 0.5 % of
+    Bisshopp & Drucker's 0.81061 and 0.55500."""
+    P = 10 * E2 * I2 / LT ** 2
+    h = run_case(strip(f"force: [0, 0, {-P}]").replace("method: newton, ", ""))
+    assert -h.observables["w"][-1] / LT == pytest.approx(0.81061, rel=5e-3)
+    assert -h.observables["u"][-1] / LT == pytest.approx(0.55500, rel=5e-3)
+
+
 def test_end_moment_rolls_a_cantilever_into_a_half_circle(run_case):
     """An end moment M = π EI/L bends the strip to a half circle of radius
     L/π (curvature M/EI): the tip comes back over the clamp, x = 0, at

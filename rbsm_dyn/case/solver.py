@@ -65,22 +65,29 @@ class Solver(_Node):
 RELAXATION_KEYS = ("max_iterations", "relaxation", "damping_factor", "predictor")
 
 
-def default_static_method(case) -> str:
+#: a static case of more bodies than this defaults to dynamic relaxation,
+#: which needs no matrix (Newton factorises the assembled stiffness: its
+#: fill grows faster than the bodies; the relaxation's linear predictor
+#: stops at 5 000 bodies for the same reason)
+NEWTON_DEFAULT_MAX_BODIES = 50_000
+
+
+def default_static_method(case, n_bodies=None) -> str:
     """solver.method of a static case that does not give one: `newton`
-    with indirect displacement control (solver.control) and for softening
-    fracture (a material's rupture by fracture energy: dynamic relaxation
-    does not converge in any reasonable time there, issue 13), unless the
-    case gives keys of the relaxation (RELAXATION_KEYS) or has interfaces
-    between parts (frictional contact, where Newton stalls); `relaxation`
-    otherwise."""
+    (Newton iterations with the consistent tangent: elastic, plastic and
+    softening statics, large rotations; issue 30), unless the case gives
+    keys of the relaxation (RELAXATION_KEYS) or has interfaces between
+    parts (frictional contact, where Newton stalls), or more than
+    NEWTON_DEFAULT_MAX_BODIES bodies (``n_bodies``, when known); then
+    `relaxation`.  solver.control needs `newton`."""
     s = case.solver
     if s.control is not None:
         return "newton"
     if any(s.given(k) for k in RELAXATION_KEYS) or case.interfaces:
         return "relaxation"
-    soft = any(m.rupture is not None and m.rupture.fracture_energy is not None
-               for m in case.materials.values())
-    return "newton" if soft else "relaxation"
+    if n_bodies is not None and n_bodies > NEWTON_DEFAULT_MAX_BODIES:
+        return "relaxation"
+    return "newton"
 
 
 DYNAMIC_KEYS = ("end_time", "dt", "dt_safety", "damping")

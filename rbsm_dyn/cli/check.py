@@ -15,7 +15,7 @@ def main(args, path):
     model, step = ready.model, ready.step
     print(f"{path}: ok ({model.n_bodies} bodies, {model.n_springs} spring points)")
     if case.solver.mode == "static":
-        how = "the default for this case" if case.solver._method_default else "given"
+        how = ("the default for this case" if case.solver._method_default else "given")
         print(f"  solver: static by {case.solver.method} ({how}; docs/case_file.md)")
     if step is not None:
         dt, est = step

@@ -63,6 +63,11 @@ def _prepared(command, case, args, threads, notice):
         return 2
     if command != "run":
         notice.done()               # check, info: the heartbeat ends with the build
+    s = case.solver
+    if s.mode == "static" and s._method_default:
+        # the default static method by the size of the model too (case/solver.py)
+        from ..case import default_static_method
+        s.method = default_static_method(case, model.n_bodies)
     if args.threads is None and getattr(case.solver, "threads", None) is None:
         # no count given: the idle cores, one for a small model (threads.py)
         import numba
