@@ -322,3 +322,40 @@ def test_low_rank_renews_past_its_size(monkeypatch):
     K = nt.pattern.matrix(m, st.body_quat, frames, k2).toarray()[f][:, f]
     X = np.linalg.solve(K, B)
     assert np.abs(renewed.solve(B) - X).max() < 1e-8 * np.abs(X).max()
+
+
+@pytest.mark.parametrize("slip", [False, True])
+def test_friction_tangent_is_the_jacobian_of_the_contact_traction(slip):
+    """A closed broken face (δn < 0) with Coulomb friction μ = 0.5: the
+    local tangent Newton takes (solvers/newton.py _local_tangents) is the
+    derivative of the traction of physics/laws/contact.py (central
+    differences, h = 1e-6 of the gap, to 1e-6 of kn): the elastic springs
+    while it sticks, the consistent tangent of the radial return while it
+    slips (issue 30: Newton through contact)."""
+    from rbsm_dyn.physics.laws import BROKEN, N_PARAMS, P_MU
+    from rbsm_dyn.physics.laws.contact import contact_traction
+    from rbsm_dyn.solvers.newton import _local_tangents
+    kn, ks, kt, mu = 3.0e9, 1.2e9, 0.9e9, 0.5
+    gap = np.array([[-1.0e-6, 0.9e-6 if slip else 0.1e-6, -0.5e-6 if slip else 0.05e-6]])
+    slip0 = np.array([[0.0, 0.1e-6, 0.05e-6]])
+    law = np.zeros((1, N_PARAMS))
+    law[0, P_MU] = mu
+    out = np.zeros((1, 3, 3))
+    _local_tangents((np.array([[kn, ks, kt]]), np.ones(1), np.full(1, 0.01),
+                     np.zeros(1, np.int64), law),
+                    (np.full(1, BROKEN, np.int8), np.zeros(1)),
+                    (np.zeros(1), np.zeros(1), slip0), gap, 1e-6, True, out)
+
+    def traction(g):
+        sn, ts, tt, *_ = contact_traction(mu, kn, ks, kt, g[0], g[1], g[2],
+                                          slip0[0, 1], slip0[0, 2])
+        return np.array([sn, ts, tt])
+    t0 = traction(gap[0])
+    assert (np.hypot(t0[1], t0[2]) >= -mu * t0[0] * (1 - 1e-12)) == slip
+    h = 1e-12
+    fd = np.zeros((3, 3))
+    for j in range(3):
+        e = np.zeros(3)
+        e[j] = h
+        fd[:, j] = (traction(gap[0] + e) - traction(gap[0] - e)) / (2 * h)
+    assert np.allclose(out[0], fd, atol=1e-6 * kn, rtol=0)

@@ -446,10 +446,11 @@ def _local_tangents(laws, trial, committed, gap, open_fraction, tangent, out):
     face's normal spring whole); a spring whose damage grows in this
     increment (D > the committed D0) gets the consistent tangent
     ∂f/∂e = (1 − D) K − K e ⊗ ∂D/∂e (∂D/∂e by central differences of the
-    damage function; not symmetric); broken: contact at full stiffness when
-    the faces overlap (δn < 0: a face at zero gap, the notch of a cut at the
-    start, opens under tension; tangential too with friction), else
-    `open_fraction` of it.  `tangent` False: the secant (1 − D) K for all.
+    damage function; not symmetric); broken: contact at full normal
+    stiffness when the faces overlap (δn < 0: a face at zero gap, the notch
+    of a cut at the start, opens under tension), its friction at the
+    elastic stiffness while it sticks and at the consistent tangent of
+    the Coulomb return while it slips; else `open_fraction` of it.  `tangent` False: the secant (1 − D) K for all.
     Returns True when some spring got a tangent.  laws: (spring_k,
     spring_area, spring_h, spring_law, law_params) per spring point; trial:
     (state, dmg) the trial history; committed: (dmg0, kappa0, dp)."""
@@ -463,10 +464,36 @@ def _local_tangents(laws, trial, committed, gap, open_fraction, tangent, out):
         P = law_params[spring_law[s]]
         if state[s] >= BROKEN:
             f = open_fraction
-            if gap[s, 0] < -1e-12 * spring_h[s]:
+            mu = P[P_MU] if kappa0[s] != np.inf else -1.0     # parted: no contact
+            if gap[s, 0] < -1e-12 * spring_h[s] and mu >= 0.0:
                 out[s, 0, 0] = kn
-                out[s, 1, 1] = ks if P[P_MU] > 0.0 else f * ks
-                out[s, 2, 2] = kt if P[P_MU] > 0.0 else f * kt
+                # Coulomb friction (laws/contact.py) from the committed slip:
+                # stick, the elastic springs; slip, the consistent tangent of
+                # the radial return τ = μ|σn| m, m = τ*/|τ*| (Wriggers,
+                # Computational Contact Mechanics, 2006, §6.4 / Simo & Taylor
+                # 1985): ∂τ/∂δτ = (μ|σn|/|τ*|)(K − m mᵀ K), ∂τ/∂δn = −μ kn m,
+                # not symmetric; floored at `open_fraction` of K
+                ts = ks * (gap[s, 1] - dp[s, 1])
+                tt = kt * (gap[s, 2] - dp[s, 2])
+                t = math.sqrt(ts * ts + tt * tt)
+                tmax = -mu * kn * gap[s, 0]
+                if mu > 0.0 and t <= tmax:
+                    out[s, 1, 1] = ks
+                    out[s, 2, 2] = kt
+                elif mu > 0.0:
+                    r = tmax / t
+                    ms = ts / t
+                    mt = tt / t
+                    out[s, 1, 1] = max(r * ks * (1.0 - ms * ms), f * ks)
+                    out[s, 1, 2] = -r * ms * mt * kt
+                    out[s, 2, 1] = -r * mt * ms * ks
+                    out[s, 2, 2] = max(r * kt * (1.0 - mt * mt), f * kt)
+                    out[s, 1, 0] = -mu * kn * ms
+                    out[s, 2, 0] = -mu * kn * mt
+                    any_soft = True
+                else:
+                    out[s, 1, 1] = f * ks
+                    out[s, 2, 2] = f * kt
             else:
                 out[s, 0, 0] = f * kn
                 out[s, 1, 1] = f * ks
