@@ -447,8 +447,8 @@ def _local_tangents(laws, trial, committed, gap, open_fraction, tangent, out):
     increment (D > the committed D0) gets the consistent tangent
     ∂f/∂e = (1 − D) K − K e ⊗ ∂D/∂e (∂D/∂e by central differences of the
     damage function; not symmetric); broken: contact at full normal
-    stiffness when the faces overlap (δn < 0: a face at zero gap, the notch
-    of a cut at the start, opens under tension), its friction at the
+    stiffness when the faces overlap or touch (δn ≤ 0: a face at zero gap,
+    an interface at the start, opens in the next iteration if pulled), its friction at the
     elastic stiffness while it sticks and at the consistent tangent of
     the Coulomb return while it slips; else `open_fraction` of it.  `tangent` False: the secant (1 − D) K for all.
     Returns True when some spring got a tangent.  laws: (spring_k,
@@ -465,7 +465,12 @@ def _local_tangents(laws, trial, committed, gap, open_fraction, tangent, out):
         if state[s] >= BROKEN:
             f = open_fraction
             mu = P[P_MU] if kappa0[s] != np.inf else -1.0     # parted: no contact
-            if gap[s, 0] < -1e-12 * spring_h[s] and mu >= 0.0:
+            # touching counts as closed (the active set of a semi-smooth
+            # Newton: a face at zero gap -- an interface of `law: contact`
+            # under load, a cut at the start -- takes its normal stiffness,
+            # and one in tension opens at the next iteration, the residual
+            # being exact)
+            if gap[s, 0] <= 1e-12 * spring_h[s] and mu >= 0.0:
                 out[s, 0, 0] = kn
                 # Coulomb friction (laws/contact.py) from the committed slip:
                 # stick, the elastic springs; slip, the consistent tangent of
