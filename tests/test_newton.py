@@ -336,7 +336,7 @@ def test_friction_tangent_is_the_jacobian_of_the_contact_traction(slip):
     from rbsm_dyn.physics.laws.contact import contact_traction
     from rbsm_dyn.solvers.newton import _local_tangents
     kn, ks, kt, mu = 3.0e9, 1.2e9, 0.9e9, 0.5
-    gap = np.array([[-1.0e-6, 0.9e-6 if slip else 0.1e-6, -0.5e-6 if slip else 0.05e-6]])
+    gap = np.array([[-1.0e-6, 3.0e-6 if slip else 0.1e-6, -1.5e-6 if slip else 0.05e-6]])
     slip0 = np.array([[0.0, 0.1e-6, 0.05e-6]])
     law = np.zeros((1, N_PARAMS))
     law[0, P_MU] = mu
