@@ -415,20 +415,20 @@ def test_missing_file(tmp_path):
 
 
 @pytest.mark.parametrize("extra, solver, method", [
-    ("", "{mode: static}", "relaxation"),                                # elastic
+    ("", "{mode: static}", "newton"),                                    # elastic (issue 30)
     ("rupture: {fracture_energy: 100.0, tensile_strength: 3.0e6}", "{mode: static}", "newton"),
     ("rupture: {fracture_energy: 100.0, tensile_strength: 3.0e6}",
      "{mode: static, predictor: false}", "relaxation"),                 # a relaxation key
     ("rupture: {fracture_energy: 100.0, tensile_strength: 3.0e6}",
      "{mode: static, method: relaxation}", "relaxation"),
-    ("yield: {criterion: von_mises, stress: 2.5e8}", "{mode: static}", "relaxation"),
+    ("yield: {criterion: von_mises, stress: 2.5e8}", "{mode: static}", "newton"),     # plastic
     ("", "{mode: static, control: {probe: w, increment: 1.0e-6, end: 1.0e-5}}", "newton"),
 ])
 def test_static_method_default(extra, solver, method):
-    """solver.method, when a static case does not give it (issue 13):
-    Newton for softening fracture and for indirect displacement control
-    (which needed `method: newton` spelled out before), dynamic relaxation
-    otherwise and whenever a relaxation key is given (docs/case_file.md)."""
+    """solver.method, when a static case does not give it (issues 13, 30):
+    Newton for elastic, plastic and softening statics and for indirect
+    displacement control, dynamic relaxation whenever a relaxation key is
+    given (docs/case_file.md)."""
     from rbsm_dyn.case import load_case_text
     text = STATIC.replace("poisson: 0.3}", f"poisson: 0.3, {extra}}}" if extra else "poisson: 0.3}")
     text = text.replace("{mode: static, load_steps: 10, tolerance: 1.0e-6}", solver)

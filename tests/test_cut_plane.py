@@ -2,8 +2,8 @@
 (mesh/cut_seeds.py, issue 30): the seeds are mirrored across the cut's
 plane in a band around its patch, so that every point of the patch lies on
 a face between a seed and its mirror.  Facts checked: every face that a
-cut breaks lies in the cut's plane (normal parallel to 1e-12, distance
-1e-12 × size), the broken faces tile the patch (area within a strip one
+cut breaks, but those within a cell of its tip, lies in the cut's plane
+(normal parallel to 1e-12, distance 1e-12 × size), the broken faces tile the patch (area within a strip one
 cell wide along the tip: the faces there straddle it), and the seeds keep their minimum spacing."""
 import textwrap
 
@@ -44,8 +44,13 @@ def test_a_cut_is_a_plane_of_faces(seed, normal):
     mesh = build_mesh(case)
     sel, p, n = broken_faces(mesh, case)
     assert sel.sum() >= 10
-    assert np.all(np.abs(np.abs(mesh.face_normal[sel] @ n) - 1.0) < 1e-12)
-    assert np.all(np.abs((mesh.face_centroid[sel] - p) @ n) < 1e-12 * SIZE)
+    # beyond the patch the cells are random (a crack from the tip as
+    # tortuous as the calibration's): the faces within a cell of the tip
+    # may tilt, all others lie in the plane
+    away = sel & (mesh.face_centroid[:, 0] < 0.025 - SIZE)
+    assert away.sum() >= 8
+    assert np.all(np.abs(np.abs(mesh.face_normal[away] @ n) - 1.0) < 1e-12)
+    assert np.all(np.abs((mesh.face_centroid[away] - p) @ n) < 1e-12 * SIZE)
     # the patch from the side x = 0 to the tip x = 0.025 (along the plane),
     # through the whole thickness: faces with their centroid short of the tip
     length = 0.025 * np.sqrt(1 + (n[0] / n[2]) ** 2)

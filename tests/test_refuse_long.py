@@ -8,7 +8,7 @@ for 36 spring points), and a frame every step is about 10^15 bytes."""
 import textwrap
 from pathlib import Path
 
-from tests.test_fuzz_case import cli
+from test_fuzz_case import cli
 
 BAR = textwrap.dedent("""\
     name: long

@@ -15,7 +15,7 @@ import pytest
 import rbsm_dyn
 from rbsm_dyn.__main__ import main
 from rbsm_dyn.solvers.checkpoint import ARRAYS, checkpoint_info, read_checkpoint
-from tests.test_restart import _kill_at, _spawn
+from test_restart import _kill_at, _spawn
 
 CASE = """
 name: slide-restart

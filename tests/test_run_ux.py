@@ -301,7 +301,7 @@ def test_quiet_silences_the_heartbeat(tmp_path):
     assert r.stdout.startswith(f"{path}: ok"), r.stdout
 
 CASE_OF_KIND = {
-    "dynamic": TINY, "newton": STATIC, "relaxation": STATIC.replace("method: newton, ", ""),
+    "dynamic": TINY, "newton": STATIC, "relaxation": STATIC.replace("method: newton, ", "method: relaxation, "),
     "linear": STATIC.replace("mode: static, method: newton, load_steps: 2", "mode: linear"),
     "modal": STATIC.replace("mode: static, method: newton, load_steps: 2",
                             "mode: modal, modes: 3").replace(

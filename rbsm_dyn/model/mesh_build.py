@@ -83,8 +83,11 @@ def part_mesh(case, part):
         if m.kind == "blocks":
             return block_mesh(box, tuple(m.divisions))
         seeds = voronoi_seeds(box, m.size, seed=m.seed, min_spacing=m.min_spacing)
-        # a cut's plane made of cell faces (mesh/cut_seeds.py)
+        # a cut's plane made of cell faces (mesh/cut_seeds.py); a box of one
+        # cell is the box itself, cut or not
         seeds = mirror_across_cuts(seeds, case.cuts, m.size, m.min_spacing, box)
+        if len(seeds) < 2:
+            return block_mesh(box, (1, 1, 1))
         return voronoi_mesh(box, m.size, seeds=seeds)
     from ..mesh.clip import clip_to_solid
     solid = part_solid(case, part)
