@@ -25,6 +25,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from ruamel.yaml import YAML
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
@@ -38,7 +39,6 @@ import rbsm_dyn  # noqa: E402
 def kw_full_plate(size):
     """cases/kalthoff_winkler.yaml as the full plate at cell size `size`:
     both notches as cuts, no slot material, the struck row |y| < 25 mm."""
-    from ruamel.yaml import YAML
     yaml = YAML()
     data = yaml.load(KW.read_text(encoding="utf-8"))
     data["name"] = "kalthoff-winkler-full"
@@ -48,10 +48,21 @@ def kw_full_plate(size):
     del data["groups"]["notch_slot"]
     data["groups"]["struck"]["box"] = [[-1, -0.025, -1], [size, 0.025, 1]]
     data["boundary"] = [b for b in data["boundary"] if "face" not in b]
-    data["cuts"] = [{"point": [0, y, 0], "normal": [0, 1, 0],
+    data["cuts"] = [{"point": [0, y, 0], "normal": [0, 1, 0], "planar": True,
                      "within": [[-1, y - 0.5 * size, -1], [0.05, y + 0.5 * size, 1]]}
                     for y in (0.025, -0.025)]
     data["output"]["fields"] = ["position", "orientation", "spring_state"]
+    out = io.StringIO()
+    yaml.dump(data, out)
+    return out.getvalue()
+
+
+def planar_cuts(text):
+    """The case text with `planar: true` on every cut (docs/case_file.md)."""
+    yaml = YAML()
+    data = yaml.load(text)
+    for cut in data.get("cuts") or ():
+        cut["planar"] = True
     out = io.StringIO()
     yaml.dump(data, out)
     return out.getvalue()
@@ -136,6 +147,7 @@ def main(argv=None):
         for a_cells in (4, 8):
             for seed in seeds:
                 text, ts, lefm = voronoi_lefm_case(a_cells, seed, n, W)
+                text = planar_cuts(text)
                 jobs[f"griffith_a{a_cells}_s{seed}"] = text
                 ref[f"griffith_a{a_cells}_s{seed}"] = (a_cells, ts, lefm)
         runs = run_all(jobs, work, a.jobs)

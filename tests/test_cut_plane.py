@@ -1,4 +1,4 @@
-"""A notch given as `cuts` on Voronoi cells is a plane of cell faces
+"""A notch given as `cuts` with `planar: true` on Voronoi cells is a plane of cell faces
 (mesh/cut_seeds.py, issue 30): the seeds are mirrored across the cut's
 plane in a band around its patch, so that every point of the patch lies on
 a face between a seed and its mirror.  Facts checked: every face that a
@@ -20,7 +20,7 @@ CASE = textwrap.dedent("""
     domain: {{box: [[0, 0, 0], [0.06, 0.012, 0.04]]}}
     mesh: {{kind: voronoi, size: {size}, seed: {seed}}}
     materials: {{c: {{density: 2400, young: 3.0e10, poisson: 0.2}}}}
-    cuts: [{{point: [0, 0, 0.02], normal: {normal}, within: [[-1, -1, 0.015], [0.025, 1, 0.025]]}}]
+    cuts: [{{point: [0, 0, 0.02], normal: {normal}, within: [[-1, -1, 0.015], [0.025, 1, 0.025]], planar: true}}]
     solver: {{mode: linear}}
 """)
 
@@ -69,3 +69,15 @@ def test_mirrored_seeds_keep_their_spacing_and_the_box():
     assert d[:, 1].min() >= 0.5 * SIZE * (1 - 1e-12)
     assert np.all((out > box[0]) & (out < box[1]))
     assert abs(len(out) - len(seeds)) <= 0.1 * len(seeds)
+
+
+def test_a_cut_without_planar_keeps_the_seeds():
+    """The default cut breaks the faces of the seed's cells as they are
+    (old case files mesh as before)."""
+    text = CASE.format(size=SIZE, seed=3, normal="[0, 0, 1]").replace(", planar: true", "")
+    case = load_case_text(text)
+    assert case.cuts[0].planar is False
+    from rbsm_dyn.mesh import voronoi_seeds
+    box = np.array([[0, 0, 0], [0.06, 0.012, 0.04]])
+    seeds = voronoi_seeds(box, SIZE, seed=3, min_spacing=0.5)
+    assert np.array_equal(mirror_across_cuts(seeds, case.cuts, SIZE, 0.5, box), seeds)

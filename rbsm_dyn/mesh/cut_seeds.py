@@ -37,9 +37,9 @@ BAND = 2.0
 
 
 def mirror_across_cuts(seeds, cuts, size, min_spacing, box):
-    """The seeds (N, 3) with each cut's band made symmetric about its plane
-    (module docstring).  ``cuts``: items with point, normal, within (the
-    case's ``cuts``); ``box`` [[lo], [hi]]: the seeds' box (mirrors outside
+    """The seeds (N, 3) with each planar cut's band made symmetric about its
+    plane (module docstring).  ``cuts``: items with point, normal, within
+    and planar (the case's ``cuts``; those with ``planar`` false are skipped); ``box`` [[lo], [hi]]: the seeds' box (mirrors outside
     it are dropped).  Returns a new (M, 3) array; the same seeds if no cut."""
     from scipy.spatial import cKDTree
     pts = seeds = np.asarray(seeds, dtype=np.float64)
@@ -47,6 +47,8 @@ def mirror_across_cuts(seeds, cuts, size, min_spacing, box):
     w = BAND * size
     r = max(float(min_spacing), 0.2) * size
     for cut in cuts or ():
+        if not getattr(cut, "planar", True):
+            continue                   # a cut that keeps the cells of its seed
         p = np.asarray(cut.point, dtype=np.float64)
         n = np.asarray(cut.normal, dtype=np.float64)
         n = n / np.linalg.norm(n)

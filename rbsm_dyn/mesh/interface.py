@@ -128,12 +128,19 @@ def _bin_pairs(group_ptr, key, face, ilo, lo, hi, part, out_i, out_j, fill):
         s0, s1 = group_ptr[g], group_ptr[g + 1]
         k = key[s0]
         bx, by, bz = k >> (2 * _BITS), (k >> _BITS) & _MASK, k & _MASK
+        run_end = s0
         for s in range(s0, s1):
             fa = face[s]
-            for t in range(s + 1, s1):
+            if s >= run_end:
+                # faces of one part follow each other in a bin (sorted by
+                # part): pairs only with the later parts' runs, so that a bin
+                # crowded by one part's faces (a large rigid part's fan of
+                # triangles) costs nothing
+                run_end = s + 1
+                while run_end < s1 and part[face[run_end]] == part[fa]:
+                    run_end += 1
+            for t in range(run_end, s1):
                 fb = face[t]
-                if part[fa] == part[fb]:
-                    continue
                 if (lo[fa, 0] > hi[fb, 0] or lo[fb, 0] > hi[fa, 0] or lo[fa, 1] > hi[fb, 1]
                         or lo[fb, 1] > hi[fa, 1] or lo[fa, 2] > hi[fb, 2] or lo[fb, 2] > hi[fa, 2]):
                     continue
@@ -167,11 +174,11 @@ def _candidate_pairs(lo, hi, part):
     entry_ptr = np.zeros(B + 1, np.int64)
     np.cumsum(cnt, out=entry_ptr[1:])
     key, face = _bin_entries(ilo, ihi, entry_ptr)
-    order = np.argsort(key, kind="stable")
+    part = np.ascontiguousarray(part, np.int64)
+    order = np.lexsort((face, part[face], key))         # by bin, then part, then face
     key, face = key[order], face[order]
     starts = np.flatnonzero(np.concatenate([[True], key[1:] != key[:-1]]))
     group_ptr = np.concatenate([starts, [len(key)]]).astype(np.int64)
-    part = np.ascontiguousarray(part, np.int64)
     n = _bin_pairs(group_ptr, key, face, ilo, lo, hi, part, empty, empty, False)
     fi = np.empty(n, np.int64)
     fj = np.empty(n, np.int64)

@@ -25,7 +25,9 @@ class State:
     spring_state (S,) int8; spring_dp (S, 3) [m] plastic gap or slip;
     spring_kappa (S,) [m] largest opening (strain law: last equivalent
     strain, physics/inelastic.py); spring_dmg (S,) damage;
-    spring_wp, spring_wf (S,) [J] plastic and fracture dissipation.
+    spring_wp, spring_wf (S,) [J] plastic and fracture dissipation;
+    with the Poisson correction also cell_chi (N,) χ_c at the last step
+    and cell_wf (N,) [J] the energy released by its fall (physics/poisson.py).
     Poisson correction scratch (length 0 unless Model.poisson_on; not
     saved by checkpoints): aux_g (n_slots, 3) [1/m], aux_p (7, N)
     (physics/poisson.py poisson_pass)."""
@@ -47,6 +49,8 @@ class State:
     spring_dmg: np.ndarray = None
     spring_wp: np.ndarray = None
     spring_wf: np.ndarray = None
+    cell_chi: np.ndarray = None
+    cell_wf: np.ndarray = None
     aux_g: np.ndarray = None
     aux_p: np.ndarray = None
     contact: object = None        # contact.ContactState when Model.contact
@@ -75,6 +79,9 @@ def new_state(model):
     st.spring_wp = np.zeros(si)
     st.spring_wf = np.zeros(si)
     on = model.poisson_on
+    ci = n if (si and on) else 0
+    st.cell_chi = np.ones(ci)      # no link is damaged at the start (cuts are no links)
+    st.cell_wf = np.zeros(ci)
     st.aux_g = np.zeros((len(model.poisson.slot_cell) if on else 0, 3))
     st.aux_p = np.zeros((7, n if on else 0))
     refresh_all_rotations(n + 1, st.body_quat, model.body_quat0, st.body_rot, st.body_dq)

@@ -34,7 +34,10 @@ State (changes every step)
                  `store`: output steps)
   SpringHistory  spring_state (S,) int8; spring_dp (S, 3) [m]; spring_kappa
                  (S,); spring_dmg (S,); spring_wp, spring_wf (S,) [J]
-                 (physics/inelastic.py)
+                 (physics/inelastic.py); cell_chi (N,) the auxiliary
+                 stress's factor χ_c at the last step and cell_wf (N,) [J]
+                 the energy its fall released (physics/poisson.py; length
+                 0 without the Poisson correction)
 Features (None when a scene does not use them: the pass is not compiled)
   PoissonSlots   the auxiliary stress (physics/poisson.py): cell_slot_ptr
                  (N+1,) int32 each cell's links (slots); slot_cell,
@@ -147,6 +150,8 @@ class SpringHistory(NamedTuple):
     spring_dmg: np.ndarray
     spring_wp: np.ndarray
     spring_wf: np.ndarray
+    cell_chi: np.ndarray
+    cell_wf: np.ndarray
 
 
 class PoissonSlots(NamedTuple):

@@ -57,7 +57,9 @@ SLOTS = ("slot0", "slot1")
 ARRAYS = ("body_pos", "body_quat", "body_vel", "body_angmom", "body_rot", "body_dq",
           "body_wrench", "body_support", "spring_force", "body_work", "body_damp",
           "body_reaction", "spring_state", "spring_dp", "spring_kappa", "spring_dmg",
-          "spring_wp", "spring_wf")
+          "spring_wp", "spring_wf", "cell_chi", "cell_wf")
+#: State arrays a checkpoint of an older rbsm_dyn lacks (the new state's values kept)
+OPTIONAL = ("cell_chi", "cell_wf")
 #: ContactState arrays saved: one row per candidate pair (grow as pairs come)
 CONTACT_PAIR_ARRAYS = ("pairs", "slip", "sep", "out")
 #: ... and one row per body
@@ -304,7 +306,7 @@ def _read_checkpoint(f, path):
         raise RestartError(f"{path}: holds no checkpoint yet (the run stopped before "
                            "writing one); run the case again from the start")
     s = g[SLOTS[cur]]
-    out = {a: s[a][()] for a in ARRAYS}
+    out = {a: s[a][()] for a in ARRAYS if a in s or a not in OPTIONAL}
     for a in ("step", "dt", "time", "frames", "e0"):
         out[a] = s[a][()].item()
     out["contact"] = _read_contact(s["contact"]) if "contact" in s else None
@@ -374,6 +376,8 @@ def load_for_restart(case, model, path, *, writer_alive=None):
     state = new_state(model)
     for a in ARRAYS:
         arr = getattr(state, a)
+        if a not in data:
+            continue                       # OPTIONAL, from an older checkpoint
         saved = data[a]
         if saved.shape != arr.shape or saved.dtype != arr.dtype:
             raise RestartError(f"--restart {path}: checkpoint array {a} has shape "

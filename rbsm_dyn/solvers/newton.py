@@ -893,7 +893,7 @@ def _set_reactions(nt, state, lam):
 
 
 _SAVED = ("body_pos", "body_quat", "body_rot", "body_dq", "spring_state", "spring_dp",
-          "spring_kappa", "spring_dmg", "spring_wp", "spring_wf")
+          "spring_kappa", "spring_dmg", "spring_wp", "spring_wf", "cell_chi", "cell_wf")
 
 
 def _save_motion(state):

@@ -400,7 +400,8 @@ class Recorder:
                     **extra}
         broken = state.spring_state >= BROKEN
         return {"plastic": float(np.sum(state.spring_wp)),
-                "fracture": float(np.sum(state.spring_wf)),
+                # with the auxiliary stress's share released by damage (physics/poisson.py)
+                "fracture": float(np.sum(state.spring_wf)) + float(np.sum(state.cell_wf)),
                 "n_broken": float(np.count_nonzero(broken)),
                 "crack_area": float(np.sum(m.spring_area[broken])), **extra}
 
