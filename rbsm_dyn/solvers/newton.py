@@ -482,10 +482,12 @@ def _local_tangents(laws, trial, committed, gap, open_fraction, tangent, out):
                 tt = kt * (gap[s, 2] - dp[s, 2])
                 t = math.sqrt(ts * ts + tt * tt)
                 tmax = -mu * kn * gap[s, 0]
-                if mu > 0.0 and t <= tmax:
+                if mu > 0.0 and tmax > 0.0 and t <= tmax:
                     out[s, 1, 1] = ks
                     out[s, 2, 2] = kt
-                elif mu > 0.0:
+                elif mu > 0.0 and tmax > 0.0:                # t > tmax > 0
+                    # (a face touching at a gap of +0 holds no friction:
+                    # the floor below)
                     r = tmax / t
                     ms = ts / t
                     mt = tt / t
