@@ -15,8 +15,9 @@ placement that gives irregular lattices plane boundaries (Yip, Mohle and
 Bolander 2005, Comput.-Aided Civ. Inf. 20; mesh/voronoi.py mirrors the
 seeds across the box's sides the same way), applied to the cut's plane.
 
-For each cut, the seeds within ``band`` × size of its plane whose foot on
-the plane lies within the cut's ``within`` box are replaced: those on the side the normal points to are
+For each cut with ``planar`` (docs/case_file.md, cuts), the seeds within
+``band`` × size of its plane whose foot on the plane lies within the cut's
+``within`` box are replaced: those on the side the normal points to are
 kept (moved off the plane to at least half the minimum spacing), each
 with its mirror; those on the other side are dropped, and so is any other
 seed closer to a mirror than the minimum spacing.  Mirrors outside the
@@ -39,15 +40,16 @@ BAND = 2.0
 def mirror_across_cuts(seeds, cuts, size, min_spacing, box):
     """The seeds (N, 3) with each planar cut's band made symmetric about its
     plane (module docstring).  ``cuts``: items with point, normal, within
-    and planar (the case's ``cuts``; those with ``planar`` false are skipped); ``box`` [[lo], [hi]]: the seeds' box (mirrors outside
-    it are dropped).  Returns a new (M, 3) array; the same seeds if no cut."""
+    and planar (the case's ``cuts``; those with ``planar`` false are
+    skipped); ``box`` [[lo], [hi]]: the seeds' box (mirrors outside it are
+    dropped).  Returns a new (M, 3) array; the same seeds if no cut."""
     from scipy.spatial import cKDTree
     pts = seeds = np.asarray(seeds, dtype=np.float64)
     lo, hi = np.asarray(box, dtype=np.float64)
     w = BAND * size
     r = max(float(min_spacing), 0.2) * size
     for cut in cuts or ():
-        if not getattr(cut, "planar", True):
+        if not cut.planar:
             continue                   # a cut that keeps the cells of its seed
         p = np.asarray(cut.point, dtype=np.float64)
         n = np.asarray(cut.normal, dtype=np.float64)
