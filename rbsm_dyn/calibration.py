@@ -164,3 +164,36 @@ def stiffness_rule(rule, mesh_kind, young, poisson):
 def stiffness_pair(rule, mesh_kind, young, poisson):
     """(E0, α) of stiffness_rule (without λ_aux)."""
     return stiffness_rule(rule, mesh_kind, young, poisson)[:2]
+
+
+def plane_moduli(kind, young, poisson):
+    """(E*, ν*) of the in-plane elasticity: plane stress (E, ν); plane
+    strain (E/(1 − ν²), ν/(1 − ν)) (Timoshenko & Goodier, Theory of
+    Elasticity, §16: ε_z = 0 turns the 3D law into the 2D one with these
+    constants; the shear modulus G = E*/(2(1 + ν*)) is unchanged)."""
+    if kind == "stress":
+        return young, poisson
+    return young / (1.0 - poisson ** 2), poisson / (1.0 - poisson)
+
+
+def plane_stiffness_rule(rule, mesh_kind, young, poisson, kind):
+    """(E0, α, λ_aux) of a material in a plane model (`kind` strain or
+    stress), from its in-plane moduli (E*, ν*) (plane_moduli):
+
+    * `kawai`: k_n = E*/(1 − ν*²)/h, k_s = G/h (Kawai & Toi 1977, eq. 13:
+      in plane strain E(1 − ν)/((1 + ν)(1 − 2ν)), the 3D rule's E').
+    * `calibrated` on blocks: uniaxial stress in the plane sees only k_n,
+      E0 = E*; shear of the square lattice G = α E0/2 gives α = 1/(1 + ν*)
+      (the 3D blocks' rule with E*, ν*: a one-cell slab of blocks in plane
+      stress is the plane model).
+
+    Raises ValueError for what the plane lattice does not calibrate yet
+    (Voronoi, the auxiliary stress)."""
+    es, nus = plane_moduli(kind, young, poisson)
+    if rule == "kawai":
+        e0 = es / (1.0 - nus ** 2)
+        return e0, es / (2.0 * (1.0 + nus)) / e0, 0.0
+    if mesh_kind == "blocks" and rule == "calibrated":
+        return es, 1.0 / (1.0 + nus), 0.0
+    raise ValueError(f"stiffness: {rule} is not available in a plane model on a "
+                     f"{mesh_kind} mesh yet (blocks: calibrated or kawai)")

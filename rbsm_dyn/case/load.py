@@ -14,6 +14,7 @@ from .errors import CaseError, _nearest_line, _show
 from .output import _PROBE_TAG, _RELATIVE_TAG
 from .parse import _parse
 from .parts import scene_parts
+from .plane import lift_plane
 from .top import Case
 from .units import UNIT_FACTORS, _to_si
 
@@ -98,6 +99,8 @@ def load_case_text(text: str | bytes, filename: str = "<string>") -> Case:
             raise CaseError(filename, line, (),
                             f"not UTF-8 text (byte 0x{text[ex.start]:02x})") from None
     data, lines = _parse(text, filename)
+    if isinstance(data, dict):
+        lift_plane(data, lines, filename)     # a plane case's 2D input, as its slab's
     try:
         case = Case.model_validate(data)
     except ValidationError as ex:

@@ -11,6 +11,7 @@ from .boundary import BoundaryItem, Group, InitialVelocity, LoadItem
 from .errors import CaseError, KeyPath, _nearest_line
 from .materials import Material
 from .output import Output
+from .plane import Plane
 from .scene import Contact, Cut, Domain, Interface, Mesh, Part
 from .solver import Solver
 
@@ -25,6 +26,7 @@ class Case(_Node):
     name: str = Field(min_length=1)
     description: Optional[str] = None
     units: Literal["SI", "mm-N-s"] = "SI"
+    plane: Optional[Plane] = None
     domain: Optional[Domain] = None
     mesh: Optional[Mesh] = None
     parts: dict[str, Part] = {}

@@ -11,6 +11,7 @@ from .boundary import (Gravity, Group, GroupDisplacement, GroupLoad, GroupVeloci
                        InitialVelocity, RigidMotion, SurfaceLoad)
 from .materials import Material, Rupture, Yield
 from .output import Output, RelativeProbe
+from .plane import Plane
 from .scene import Contact, Cut, Domain, Ground, Interface, Mesh
 from .solver import Control, Damping, Solver
 
@@ -24,6 +25,7 @@ DIMENSIONS: dict[tuple[type, str], str] = {
     (Domain, "scale"): "geometry_scale",
     (Domain, "surfaces"): "geometry",
     (Mesh, "size"): "length",
+    (Plane, "thickness"): "length",
     (Interface, "thickness"): "length",
     (Material, "density"): "density",
     (Material, "young"): "stress",

@@ -324,3 +324,50 @@ def _ear_clip(ptr, uv):
     if not _EAR_CLIP:
         _EAR_CLIP.append(_ear_clip_kernel())
     return _EAR_CLIP[0](ptr, uv)
+
+
+def edge_spring_points(vertex_ptr, vertex_xyz, normal, rule="moment"):
+    """Spring points of the plane mode: on the trace of each face in the
+    mid-plane z = 0 (the faces of a plane mesh are the sides of prisms,
+    normal to z), weights summing to the face's area (edge length × depth).
+
+    Along an edge of length L about its centroid c and direction τ = e_z × n:
+    ``centroid`` one point at c; ``moment`` (default) two at c ± L/(2√3) τ
+    (the 2-point Gauss rule: area, first and second moment of the edge
+    exact, Σ w s² = A L²/12, as the 3D rule's on the face of a slab, so a
+    plane model and its one-cell slab have the same stiffness);
+    ``three`` the 3-point Gauss rule (±√(3/5) L/2, weights 5/18, 8/18, 5/18;
+    exact to degree 5).  A face not normal to z (a slab's top or bottom)
+    is an error: it carries no springs in a plane model."""
+    vertex_ptr = np.asarray(vertex_ptr, dtype=np.int64)
+    xyz = np.asarray(vertex_xyz, dtype=np.float64)
+    normal = np.asarray(normal, dtype=np.float64)
+    if len(normal) and np.max(np.abs(normal[:, 2])) > 1e-9:
+        raise ValueError("a face not normal to the plane (a top or bottom of the slab) "
+                         "cannot carry plane springs")
+    area, cen = polygon_properties(vertex_ptr, xyz, normal)
+    n, poly, _ = _polygon_index(vertex_ptr)
+    tau = np.stack([-normal[:, 1], normal[:, 0]], axis=1)
+    s = np.einsum("ij,ij->i", xyz[:, :2] - cen[poly, :2], tau[poly])
+    F = len(n)
+    smin = np.full(F, np.inf)
+    smax = np.full(F, -np.inf)
+    np.minimum.at(smin, poly, s)
+    np.maximum.at(smax, poly, s)
+    length = smax - smin
+    mid = 0.5 * (smin + smax)            # the trace's midpoint (the centroid of a rectangle)
+    if rule == "centroid":
+        off, w = np.array([0.0]), np.array([1.0])
+    elif rule == "moment":
+        off, w = np.array([-0.5, 0.5]) / np.sqrt(3.0), np.array([0.5, 0.5])
+    elif rule == "three":
+        off = np.array([-0.5, 0.0, 0.5]) * np.sqrt(0.6)
+        w = np.array([5.0, 8.0, 5.0]) / 18.0
+    else:
+        raise ValueError(f"unknown spring-point rule {rule!r} (one of {', '.join(RULES)})")
+    k = len(off)
+    face = np.repeat(np.arange(F, dtype=np.int64), k)
+    pos = np.tile(off, F) * np.repeat(length, k) + np.repeat(mid, k)
+    point = np.zeros((F * k, 3))
+    point[:, :2] = cen[face, :2] + pos[:, None] * tau[face]
+    return SpringPoints(point, np.tile(w, F) * np.repeat(area, k), face)

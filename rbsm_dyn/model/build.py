@@ -7,6 +7,7 @@ import numpy as np
 
 from ..partition import spring_schedule
 from ..mesh import principal_axes
+from ..physics.integrate import FIXED
 from ..physics.laws import BROKEN, P_CRIT, P_RUPT
 from ..physics.poisson import build_poisson, empty_poisson
 from ..physics.rotation import matrix_to_quat
@@ -34,6 +35,11 @@ def build_model(case, mesh=None):
     hist = Amplitudes()
     notes = interface_notes(case, mesh)
     dof_kind, dof_value, dof_hist = constraints(case, mesh, groups, hist, notes)
+    if case.plane is not None:
+        # a plane model moves in x-y and turns about z (physics/plane.py); the
+        # 3D solvers that serve it (output, Newton, modal) see z, rx, ry held
+        dof_kind[:, 2:5] = FIXED
+        dof_value[:, 2:5] = 0.0
     fext, mext, ffol, mfol, load_hist, gravity = body_loads(case, mesh, groups, rot0, hist)
     poisson = _poisson(case, mesh, rot0, body_rigid, body_material, laws, spring_face,
                        springs["spring_state0"])
@@ -45,6 +51,7 @@ def build_model(case, mesh=None):
         hist_ptr=np.asarray(hist.ptr, dtype=IDX), hist_t=np.asarray(hist.t, float),
         hist_a=np.asarray(hist.a, float), groups=groups, materials=laws.materials, mesh=mesh,
         n_cut=n_cut, law_params=laws.law_params,
+        plane="" if case.plane is None else case.plane.kind,
         inelastic=bool(n_cut > 0 or np.any(springs["spring_state0"] >= BROKEN)
                        or np.any(laws.law_params[:, [P_CRIT, P_RUPT]] > 0)))
     return _with_contact(case, model, notes)

@@ -352,7 +352,7 @@ def stiffness_check(model, state, dt, est):
     k = np.ascontiguousarray(np.stack([out[:, O_K], out[:, O_KT], out[:, O_KT]], axis=1))
     rows = np.zeros((n, 6))
     _scaled_row_sums(pairs, arm_a, arm_b, rot, frames, k, model.body_mass,
-                     model.body_inertia, np.ones((n + 1, 6)), rows)
+                     model.body_inertia, np.ones((n, 6)), np.ones((n + 1, 6)), rows)
     g_s = float(cs.spring_rows.max(initial=0.0))
     g_sc = float((cs.spring_rows + rows).max())
     lam_s = (2.0 / est) ** 2 if np.isfinite(est) and est > 0 else 0.0

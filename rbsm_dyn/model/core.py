@@ -62,6 +62,10 @@ class Model:
       principal frame (world R·f: they turn with the cell), (0, 3) when the
       case has none; body_load_hist (N,) int32 amplitude of both;
       gravity (3,) [m/s²]; amplitude tables hist_ptr, hist_t, hist_a.
+    Plane models (plane "strain" or "stress"): the cells are prisms of the
+      case's thickness about z = 0, their spring points on the mid-plane
+      (mesh/spring_points.py edge_spring_points), z, rx, ry held in
+      dof_kind; the explicit step runs the plane passes (physics/plane.py).
     Poisson correction (physics/poisson.py): poisson, a PoissonArrays of
       per-cell least-squares strain geometry and λ_c V_c; length 0 (and
       poisson_on False) when no material has an auxiliary λ.
@@ -107,6 +111,7 @@ class Model:
     poisson: object = None
     warnings: tuple = ()          # messages for the user (conflicting constraints, ...)
     contact: object = None        # contact.ContactModel, None: no contact
+    plane: str = ""               # "strain" | "stress": a plane model (physics/plane.py); "": 3D
 
     @property
     def poisson_on(self):

@@ -5,7 +5,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..calibration import stiffness_rule
+from ..calibration import plane_stiffness_rule, stiffness_rule
 from ..fracture_calibration import fracture_ratios
 from ..physics.laws import (CONTACT_OFF, CRITERIA, N_PARAMS, P_COH, P_CRIT, P_EPSCR, P_FT,
                             P_GF, P_GS, P_MU, P_RS, P_RUPT, P_SY, P_TANPHI, P_TENSION,
@@ -148,7 +148,11 @@ def _slot_laws(case, parts, slots, law_rows):
         kind = ref.mesh.kind if ref.mesh.kind != "rigid" else "blocks"
         from ..case import part_cell_size
         try:
-            e0, alpha, lam_aux = stiffness_rule(mat.stiffness, kind, mat.young, mat.poisson)
+            if case.plane is None:
+                e0, alpha, lam_aux = stiffness_rule(mat.stiffness, kind, mat.young, mat.poisson)
+            else:
+                e0, alpha, lam_aux = plane_stiffness_rule(mat.stiffness, kind, mat.young,
+                                                          mat.poisson, case.plane.kind)
         except ValueError as exc:
             raise case.error(("materials", name, "poisson"), str(exc)) from None
         if materials[j] is None:

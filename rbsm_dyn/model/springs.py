@@ -36,7 +36,16 @@ def _frames_from_normals(normal):
     return out
 
 
-def _spring_points_by_rule(ptr, xyz, normal, rule):
+def points_rule(case):
+    """The spring-point function of a case: on the faces (3D), or on the
+    faces' traces in the mid-plane (plane mode, mesh/spring_points.py)."""
+    if case.plane is None:
+        return spring_points
+    from ..mesh.spring_points import edge_spring_points
+    return edge_spring_points
+
+
+def _spring_points_by_rule(ptr, xyz, normal, rule, spring_points=spring_points):
     """spring_points over polygons with a rule each (rule (F,) str): one
     call per distinct rule, points ordered by polygon."""
     from ..mesh._core import _gather
@@ -63,7 +72,8 @@ def internal_springs(case, mesh, parts, body_part, body_rigid, laws):
     part_rule = np.array([p.mesh.spring_points for p in parts])
     fa, fb = mesh.face_cells[:, 0], mesh.face_cells[:, 1]
     sp = _spring_points_by_rule(mesh.face_vertex_ptr, mesh.face_vertex_xyz, mesh.face_normal,
-                                part_rule[np.where(body_rigid[fa], body_part[fb], body_part[fa])])
+                                part_rule[np.where(body_rigid[fa], body_part[fb], body_part[fa])],
+                                points_rule(case))
     f = sp.face
     a = mesh.face_cells[f, 0].astype(IDX)
     b = mesh.face_cells[f, 1].astype(IDX)
@@ -186,8 +196,11 @@ def _support(case, mesh, parts, body_part, laws, j, item, name, fix, sel):
     e0, alpha = laws.e0, laws.alpha
     ptr, vid = _gather(mesh.bface_vertex_ptr, np.arange(len(mesh.bface_vertex_xyz)), sel)
     xyz = mesh.bface_vertex_xyz[vid]
-    bsp = spring_points(ptr, xyz, mesh.bface_normal[sel],
-                        parts[body_part[mesh.bface_cell[sel[0]]]].mesh.spring_points)
+    if case.plane is not None and np.max(np.abs(mesh.bface_normal[sel, 2])) > 1e-9:
+        raise case.error(("boundary", j), f"surface {name} is a face of the plane (the "
+                         "slab's top or bottom): a plane case supports its edges only")
+    bsp = points_rule(case)(ptr, xyz, mesh.bface_normal[sel],
+                            parts[body_part[mesh.bface_cell[sel[0]]]].mesh.spring_points)
     bf = sel[bsp.face]
     cell = mesh.bface_cell[bf]
     nrm_b = mesh.bface_normal[bf]

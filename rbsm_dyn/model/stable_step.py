@@ -53,9 +53,11 @@ def dof_row_sums(model, body_rot=None):
 
 @nb.njit(cache=True)
 def _scaled_row_sums(spring_bodies, spring_arm_a, spring_arm_b, rot, frames, spring_k,
-                     body_mass, body_inertia, x, out):
+                     body_mass, body_inertia, active, x, out):
     """(P x)_i = Σ_j P_ij x_j with P_ij = Σ_s |K_s,ij| / √(M_i M_j) per body DOF
-    (rotations in principal axes; x = 1 gives the Gershgorin row sums):
+    (rotations in principal axes; x = 1 gives the Gershgorin row sums), over
+    the DOFs j of each body with active[body, j] = 1 (a plane model: x, y
+    and the rotation about the principal axis along z):
     K_s = Bᵀ C B with C = F diag(k) Fᵀ and, for end e of the spring,
     B_e = ±[I, −R_e [r_e]×] (r_e the arm in the principal frame; Kawai 1978,
     eq. 8b)."""
@@ -91,8 +93,8 @@ def _scaled_row_sums(spring_bodies, spring_arm_a, spring_arm_b, rot, frames, spr
                     B[r, 6 * e + 3 + j] = -sign * (R[r, 0] * cx + R[r, 1] * cy + R[r, 2] * cz)
             m = body_mass[body]
             for j in range(3):
-                scale[6 * e + j] = 1.0 / np.sqrt(m)
-                scale[6 * e + 3 + j] = 1.0 / np.sqrt(body_inertia[body, j])
+                scale[6 * e + j] = active[body, j] / np.sqrt(m)
+                scale[6 * e + 3 + j] = active[body, 3 + j] / np.sqrt(body_inertia[body, j])
         for r in range(3):
             for j in range(12):
                 CB[r, j] = C[r, 0] * B[0, j] + C[r, 1] * B[1, j] + C[r, 2] * B[2, j]
@@ -122,9 +124,17 @@ def scaled_row_sums(model, x=None):
     xx = np.ones((n + 1, 6))
     if x is not None:
         xx[:n] = x
+    rot = quat_matrix_np(model.body_quat0)
+    active = np.ones((n, 6))
+    if model.plane:
+        # x, y and the rotation about z: a prism's principal axis along z
+        # (its mid-plane is a plane of symmetry) is the one whose column of
+        # R has the largest z component
+        active[:, 2:] = 0.0
+        active[np.arange(n), 3 + np.argmax(np.abs(rot[:n, 2, :]), axis=1)] = 1.0
     _scaled_row_sums(model.spring_bodies, model.spring_arm_a, model.spring_arm_b,
-                     quat_matrix_np(model.body_quat0), quat_matrix_np(model.spring_frame0),
-                     model.spring_k, model.body_mass, model.body_inertia, xx, out)
+                     rot, quat_matrix_np(model.spring_frame0),
+                     model.spring_k, model.body_mass, model.body_inertia, active, xx, out)
     if model.poisson_on:
         s = np.zeros((n, 6))
         s[:, :3] = 1.0 / np.sqrt(model.body_mass)[:, None]

@@ -54,6 +54,7 @@ class State:
     aux_g: np.ndarray = None
     aux_p: np.ndarray = None
     contact: object = None        # contact.ContactState when Model.contact
+    plane: object = None          # a plane model's PlaneState between chunks (solvers/plane.py)
     step: int = 0
     dt: float = 0.0
 

@@ -243,3 +243,68 @@ def of(cls, obj, **override):
 def flag(x):
     """x as a run-time bool, not a constant (see module docstring)."""
     return bool(x)
+
+
+class PlaneBodies(NamedTuple):
+    """A plane model's bodies (physics/plane.py): body_mass (N,) [kg];
+    body_jz (N,) [kg m²] polar moment about the centroid; body_pos0 (N+1, 2)
+    [m] (row N: the ground)."""
+    body_mass: np.ndarray
+    body_jz: np.ndarray
+    body_pos0: np.ndarray
+
+
+class PlaneSprings(NamedTuple):
+    """A plane model's spring points: spring_bodies (S, 2) int32;
+    spring_arm_a, spring_arm_b (S, 2) [m] arms at rest (world axes);
+    spring_slot (S,) int32; spring_area (S,) [m²]; face_n0 (F, 2) the rest
+    normal from a to b; face_k (F, 2) [N/m³] (k_n, k_s) per area, k_s along
+    e_z × n; group_ptr, phase_ptr the schedule (partition.py)."""
+    spring_bodies: np.ndarray
+    spring_arm_a: np.ndarray
+    spring_arm_b: np.ndarray
+    spring_slot: np.ndarray
+    spring_area: np.ndarray
+    face_n0: np.ndarray
+    face_k: np.ndarray
+    group_ptr: np.ndarray
+    phase_ptr: np.ndarray
+
+
+class PlaneLoads(NamedTuple):
+    """A plane model's loads and constraints: body_fext (N, 3) [N, N, N m]
+    dead (f_x, f_y, m_z); body_ffol (N, 3) or (0, 3) follower loads in the
+    body's rest axes (they turn with it); body_load_hist (N,) int32;
+    gravity (2,) [m/s²]; dof_kind (N, 3) int8, dof_value, dof_hist (N, 3)
+    of (x, y, θ); amplitude tables hist_ptr, hist_t [s], hist_a."""
+    body_fext: np.ndarray
+    body_ffol: np.ndarray
+    body_load_hist: np.ndarray
+    gravity: np.ndarray
+    dof_kind: np.ndarray
+    dof_value: np.ndarray
+    dof_hist: np.ndarray
+    hist_ptr: np.ndarray
+    hist_t: np.ndarray
+    hist_a: np.ndarray
+
+
+class PlaneState(NamedTuple):
+    """What changes per body of a plane model: body_pos (N+1, 2) [m];
+    body_theta (N+1,) [rad] the rotation from rest (any number of turns);
+    body_cs (N+1, 2) its (cos, sin); body_vel (N+1, 2) [m/s] and body_omega
+    (N+1,) [rad/s] at the half step; body_wrench (N+1, 3) [N, N, N m];
+    body_support (N+1, 2) [N]; body_work, body_damp (N,) [J]; body_reaction
+    (N, 2) [N]; spring_force (S, 2) [N] (written when a pass is asked to
+    `store`)."""
+    body_pos: np.ndarray
+    body_theta: np.ndarray
+    body_cs: np.ndarray
+    body_vel: np.ndarray
+    body_omega: np.ndarray
+    body_wrench: np.ndarray
+    body_support: np.ndarray
+    body_work: np.ndarray
+    body_damp: np.ndarray
+    body_reaction: np.ndarray
+    spring_force: np.ndarray

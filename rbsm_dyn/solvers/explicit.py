@@ -30,7 +30,9 @@ from ..physics.arrays import Stepping
 from ..physics.collide import contact_step
 from ..physics.integrate import run_dynamic, synchronized_momenta
 from ..physics.passes import spring_forces
+from ..physics.plane import run_plane
 from ..case import DT_SAFETY_MAX
+from .plane import lift, plane_arrays, plane_ready, plane_state
 from .checkpoint import Checkpointer, Interrupted, SignalGuard
 from .passes import (Options, aux_stress, body_state, contact_arrays, history, model_arrays,
                      parallel_arg)
@@ -146,6 +148,15 @@ def advance(model, state, n_steps, damping_alpha=0.0, damping_local=0.0, options
     m = model
     opt = Options.of(m) if options is None else options
     bodies, springs, loads = model_arrays(m)
+    if plane_ready(m, opt):
+        # a plane model on the plane passes; the slab's arrays lifted after
+        pb, psp, pl = plane_arrays(m)
+        state.step = run_plane(
+            n_steps, state.step, Stepping(float(state.dt), float(damping_alpha),
+                                          float(damping_local)),
+            pb, psp, pl, plane_state(m, state), parallel_arg(opt))
+        lift(m, state)
+        return
     contact = contact_arrays(m, state.contact) if opt.contact else None
     state.step = run_dynamic(
         n_steps, state.step, Stepping(float(state.dt), float(damping_alpha),
