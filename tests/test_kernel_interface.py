@@ -21,7 +21,9 @@ MAX_INLINE_PARAMS = 30
 CONTAINERS = {"bodies": arrays.Bodies, "springs": arrays.Springs, "loads": arrays.Loads,
               "bs": arrays.BodyState, "hist": arrays.SpringHistory,
               "aux": arrays.PoissonSlots, "contact": arrays.ContactArrays,
-              "stepping": arrays.Stepping, "relax": arrays.Relaxation}
+              "stepping": arrays.Stepping, "relax": arrays.Relaxation,
+              "pbodies": arrays.PlaneBodies, "psprings": arrays.PlaneSprings,
+              "ploads": arrays.PlaneLoads, "ps": arrays.PlaneState}
 
 
 def _jit_decorator(fn):

@@ -24,7 +24,7 @@ import numba as nb
 import numpy as np
 
 from .integrate import DISPLACEMENT, FIXED, FREE, VELOCITY, amplitude
-from .springs import SERIAL_SPRINGS, part_range  # noqa: F401  (SERIAL_SPRINGS: solvers)
+from .springs import part_range
 from ..partition import PARTS
 
 JIT = dict(cache=True, nogil=True, fastmath={"contract"}, error_model="numpy")
@@ -108,16 +108,16 @@ def _elastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spri
 
 
 @nb.njit(parallel=True, **JIT)
-def _elastic_phase(lo, hi, parts, springs, ps, store):
+def _elastic_phase(lo, hi, parts, psprings, ps, store):
     """Groups lo..hi of one phase in parallel (they share no body)."""
-    group_ptr = springs.group_ptr
-    spring_bodies = springs.spring_bodies
-    spring_arm_a = springs.spring_arm_a
-    spring_arm_b = springs.spring_arm_b
-    spring_slot = springs.spring_slot
-    face_n0 = springs.face_n0
-    face_k = springs.face_k
-    spring_area = springs.spring_area
+    group_ptr = psprings.group_ptr
+    spring_bodies = psprings.spring_bodies
+    spring_arm_a = psprings.spring_arm_a
+    spring_arm_b = psprings.spring_arm_b
+    spring_slot = psprings.spring_slot
+    face_n0 = psprings.face_n0
+    face_k = psprings.face_k
+    spring_area = psprings.spring_area
     body_pos = ps.body_pos
     body_cs = ps.body_cs
     body_wrench = ps.body_wrench
@@ -132,22 +132,22 @@ def _elastic_phase(lo, hi, parts, springs, ps, store):
 
 
 @nb.njit(**JIT)
-def _elastic_serial(springs, ps, store):
+def _elastic_serial(psprings, ps, store):
     """Every group in order, one thread (small models)."""
-    group_ptr = springs.group_ptr
-    spring_bodies = springs.spring_bodies
-    spring_arm_a = springs.spring_arm_a
-    spring_arm_b = springs.spring_arm_b
-    spring_slot = springs.spring_slot
-    face_n0 = springs.face_n0
-    face_k = springs.face_k
-    spring_area = springs.spring_area
+    group_ptr = psprings.group_ptr
+    spring_bodies = psprings.spring_bodies
+    spring_arm_a = psprings.spring_arm_a
+    spring_arm_b = psprings.spring_arm_b
+    spring_slot = psprings.spring_slot
+    face_n0 = psprings.face_n0
+    face_k = psprings.face_k
+    spring_area = psprings.spring_area
     body_pos = ps.body_pos
     body_cs = ps.body_cs
     body_wrench = ps.body_wrench
     body_support = ps.body_support
     spring_force = ps.spring_force
-    phase_ptr = springs.phase_ptr
+    phase_ptr = psprings.phase_ptr
     parts = phase_ptr[1]
     for g in range(0, phase_ptr[phase_ptr.shape[0] - 1]):
         if g < parts:
@@ -158,32 +158,28 @@ def _elastic_serial(springs, ps, store):
 
 
 @nb.njit(**JIT)
-def plane_spring_pass(springs, ps, store, parallel):
+def plane_spring_pass(psprings, ps, store, parallel):
     """Linear-elastic plane springs summed into the bodies' wrenches
     (ps: arrays.PlaneState); `parallel` None: one thread in group order
     (the same sums, so the same result), else phase by phase."""
     if parallel is None:
-        _elastic_serial(springs, ps, store)
+        _elastic_serial(psprings, ps, store)
         return
-    phase_ptr = springs.phase_ptr
+    phase_ptr = psprings.phase_ptr
     parts = phase_ptr[1]
     for ph in range(phase_ptr.shape[0] - 1):
-        _elastic_phase(phase_ptr[ph], phase_ptr[ph + 1], parts, springs, ps, store)
+        _elastic_phase(phase_ptr[ph], phase_ptr[ph + 1], parts, psprings, ps, store)
 
 
-@nb.njit(**JIT)
-def _step_body(i, t, dt, keep, dt_c, damping_alpha, damping_local, follow, local,
-               body_mass, body_jz, body_pos0, body_fext, body_ffol, body_load_hist, gravity,
-               dof_kind, dof_value, dof_hist, hist_ptr, hist_t, hist_a, body_pos, body_theta,
-               body_cs, body_vel, body_omega, body_wrench, body_support, body_work, body_damp,
+@nb.njit(inline="always", **JIT)
+def _translate(i, t, dt, keep, dt_c, damping_alpha, damping_local, follow, local, amp, c, s,
+               body_wrench, body_support, body_mass, body_pos, body_pos0, body_vel, body_fext,
+               body_ffol, gravity, dof_kind, dof_value, dof_hist, hist_ptr, hist_t, hist_a,
                body_reaction):
-    """Kick, drift and turn of body i (plane_body_pass): the 3D body pass's
-    formulas (physics/integrate.py _translate, _rotate) for x, y and the
-    rotation about z, where the free rotor is the exact θ += ω dt."""
-    amp = amplitude(body_load_hist[i], t, hist_ptr, hist_t, hist_a)
+    """Kick and drift of body i's x, y (integrate._translate in the plane;
+    (c, s) the body's cos, sin θ).  Returns the step's work and damping
+    dissipation [J]."""
     m = body_mass[i]
-    c = body_cs[i, 0]
-    s = body_cs[i, 1]
     dt_cm = dt_c / m
     work = 0.0
     damp = 0.0
@@ -223,8 +219,18 @@ def _step_body(i, t, dt, keep, dt_c, damping_alpha, damping_local, follow, local
         body_vel[i, k] = v_new
         body_pos[i, k] += v_new * dt
         body_reaction[i, k] = reaction
-    # rotation about z: J ω' = J ω + dt T (dead and follower moments are
-    # both about z in the plane; the follower's work on the mean ω)
+    return work, damp
+
+
+@nb.njit(inline="always", **JIT)
+def _turn(i, dt, keep, dt_c, damping_alpha, damping_local, follow, local, amp, work, damp,
+          body_wrench, body_jz, body_fext, body_ffol, dof_kind, body_theta, body_cs,
+          body_omega, body_work, body_damp):
+    """Kick and turn of body i about z: J ω' = J ω + dt T, θ' = θ + ω' dt
+    (the exact rotation of a free body in the plane; integrate._rotate's
+    free rotor about one principal axis), dead and follower moments alike
+    about z (the follower's work on the mean ω, as in 3D); adds the step's
+    work and damping dissipation to body_work, body_damp."""
     jz = body_jz[i]
     mdead = amp * body_fext[i, 2]
     mfol = amp * body_ffol[i, 2] if follow else 0.0
@@ -251,11 +257,11 @@ def _step_body(i, t, dt, keep, dt_c, damping_alpha, damping_local, follow, local
 
 
 @nb.njit(parallel=True, **JIT)
-def _bodies_parallel(t, stepping, bodies, loads, ps):
+def _bodies_parallel(t, stepping, pbodies, ploads, ps):
     dt, damping_alpha, damping_local = stepping
-    body_mass, body_jz, body_pos0 = bodies
+    body_mass, body_jz, body_pos0 = pbodies
     (body_fext, body_ffol, body_load_hist, gravity, dof_kind, dof_value, dof_hist, hist_ptr,
-     hist_t, hist_a) = loads
+     hist_t, hist_a) = ploads
     (body_pos, body_theta, body_cs, body_vel, body_omega, body_wrench, body_support,
      body_work, body_damp, body_reaction, spring_force) = ps
     n = body_mass.shape[0]
@@ -267,19 +273,23 @@ def _bodies_parallel(t, stepping, bodies, loads, ps):
     for p in nb.prange(PARTS):
         i0, i1 = part_range(p, PARTS, n)
         for i in range(i0, i1):
-            _step_body(i, t, dt, keep, dt_c, damping_alpha, damping_local, follow, local,
-                       body_mass, body_jz, body_pos0, body_fext, body_ffol, body_load_hist,
-                       gravity, dof_kind, dof_value, dof_hist, hist_ptr, hist_t, hist_a,
-                       body_pos, body_theta, body_cs, body_vel, body_omega, body_wrench,
-                       body_support, body_work, body_damp, body_reaction)
+            amp = amplitude(body_load_hist[i], t, hist_ptr, hist_t, hist_a)
+            work, damp = _translate(i, t, dt, keep, dt_c, damping_alpha, damping_local, follow,
+                                    local, amp, body_cs[i, 0], body_cs[i, 1], body_wrench,
+                                    body_support, body_mass, body_pos, body_pos0, body_vel,
+                                    body_fext, body_ffol, gravity, dof_kind, dof_value,
+                                    dof_hist, hist_ptr, hist_t, hist_a, body_reaction)
+            _turn(i, dt, keep, dt_c, damping_alpha, damping_local, follow, local, amp, work,
+                  damp, body_wrench, body_jz, body_fext, body_ffol, dof_kind, body_theta,
+                  body_cs, body_omega, body_work, body_damp)
 
 
 @nb.njit(**JIT)
-def _bodies_serial(t, stepping, bodies, loads, ps):
+def _bodies_serial(t, stepping, pbodies, ploads, ps):
     dt, damping_alpha, damping_local = stepping
-    body_mass, body_jz, body_pos0 = bodies
+    body_mass, body_jz, body_pos0 = pbodies
     (body_fext, body_ffol, body_load_hist, gravity, dof_kind, dof_value, dof_hist, hist_ptr,
-     hist_t, hist_a) = loads
+     hist_t, hist_a) = ploads
     (body_pos, body_theta, body_cs, body_vel, body_omega, body_wrench, body_support,
      body_work, body_damp, body_reaction, spring_force) = ps
     n = body_mass.shape[0]
@@ -289,26 +299,30 @@ def _bodies_serial(t, stepping, bodies, loads, ps):
     follow = body_ffol.shape[0] > 0
     local = damping_local > 0.0
     for i in range(n):
-        _step_body(i, t, dt, keep, dt_c, damping_alpha, damping_local, follow, local,
-                   body_mass, body_jz, body_pos0, body_fext, body_ffol, body_load_hist,
-                   gravity, dof_kind, dof_value, dof_hist, hist_ptr, hist_t, hist_a,
-                   body_pos, body_theta, body_cs, body_vel, body_omega, body_wrench,
-                   body_support, body_work, body_damp, body_reaction)
+        amp = amplitude(body_load_hist[i], t, hist_ptr, hist_t, hist_a)
+        work, damp = _translate(i, t, dt, keep, dt_c, damping_alpha, damping_local, follow,
+                                local, amp, body_cs[i, 0], body_cs[i, 1], body_wrench,
+                                body_support, body_mass, body_pos, body_pos0, body_vel,
+                                body_fext, body_ffol, gravity, dof_kind, dof_value,
+                                dof_hist, hist_ptr, hist_t, hist_a, body_reaction)
+        _turn(i, dt, keep, dt_c, damping_alpha, damping_local, follow, local, amp, work,
+              damp, body_wrench, body_jz, body_fext, body_ffol, dof_kind, body_theta,
+              body_cs, body_omega, body_work, body_damp)
 
 
 @nb.njit(**JIT)
-def plane_body_pass(t, stepping, bodies, loads, ps, parallel):
+def plane_body_pass(t, stepping, pbodies, ploads, ps, parallel):
     """One leapfrog step of every plane body from the forces at t
     (integrate.dynamic_body_pass in the plane; the same work, damping and
     reaction bookkeeping).  `parallel` None: one thread."""
     if parallel is None:
-        _bodies_serial(t, stepping, bodies, loads, ps)
+        _bodies_serial(t, stepping, pbodies, ploads, ps)
     else:
-        _bodies_parallel(t, stepping, bodies, loads, ps)
+        _bodies_parallel(t, stepping, pbodies, ploads, ps)
 
 
 @nb.njit(**JIT)
-def run_plane(n_steps, step0, stepping, bodies, springs, loads, ps, parallel):
+def run_plane(n_steps, step0, stepping, pbodies, psprings, ploads, ps, parallel):
     """Advance a plane model n_steps explicit steps in compiled code:
 
         springs   forces at x_n of every spring point (plane_spring_pass)
@@ -317,6 +331,6 @@ def run_plane(n_steps, step0, stepping, bodies, springs, loads, ps, parallel):
     Returns the step count after them."""
     for k in range(n_steps):
         t = (step0 + k) * stepping.dt
-        plane_spring_pass(springs, ps, False, parallel)
-        plane_body_pass(t, stepping, bodies, loads, ps, parallel)
+        plane_spring_pass(psprings, ps, False, parallel)
+        plane_body_pass(t, stepping, pbodies, ploads, ps, parallel)
     return step0 + n_steps

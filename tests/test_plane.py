@@ -1,0 +1,158 @@
+"""Plane models (issue 27): `plane: {kind, thickness}`, the plane passes
+(physics/plane.py) against the one-cell slab of the 3D code, and against
+beam theory."""
+import numpy as np
+import pytest
+
+from rbsm_dyn.case import CaseError, load_case_text
+from rbsm_dyn.model import apply_initial, build_model, new_state
+from rbsm_dyn.solvers import explicit
+
+T = 0.02        # thickness [m]
+
+
+def _cantilever(plane, nu, n_steps=2000):
+    """A block cantilever 0.4 × 0.05 m (40 × 5 blocks) clamped at x = 0,
+    its tip column loaded by −1 kN in y ramped over 0.1 ms: the plane model
+    (plane: stress), or its slab in 3D held in z, rx, ry."""
+    if plane:
+        text = f"""
+name: c2d
+plane: {{kind: stress, thickness: {T}}}
+domain: {{box: [[0, 0], [0.4, 0.05]]}}
+mesh: {{kind: blocks, divisions: [40, 5]}}
+materials: {{steel: {{density: 8000, young: 200.0e9, poisson: {nu}}}}}
+groups: {{tip: {{box: [[0.39, -1], [1, 1]]}}}}
+boundary: [{{face: xmin, fix: all}}]
+loads: [{{group: tip, force: [0, -1000.0], history: [[0, 0], [1e-4, 1], [1, 1]]}}]
+solver: {{mode: dynamic, end_time: 1e-3}}
+"""
+    else:
+        text = f"""
+name: c3d
+domain: {{box: [[0, 0, {-T / 2}], [0.4, 0.05, {T / 2}]]}}
+mesh: {{kind: blocks, divisions: [40, 5, 1]}}
+materials: {{steel: {{density: 8000, young: 200.0e9, poisson: {nu}}}}}
+groups:
+  tip: {{box: [[0.39, -1, -1], [1, 1, 1]]}}
+  every: {{box: [[-1, -1, -1], [1, 1, 1]]}}
+boundary: [{{face: xmin, fix: all}}, {{group: every, fix: [z, rx, ry]}}]
+loads: [{{group: tip, force: [0, -1000.0, 0], history: [[0, 0], [1e-4, 1], [1, 1]]}}]
+solver: {{mode: dynamic, end_time: 1e-3}}
+"""
+    case = load_case_text(text)
+    return case, build_model(case)
+
+
+def _run(case, model, dt, n_steps):
+    state = new_state(model)
+    state.dt = dt
+    apply_initial(case, model, state)
+    explicit.start_half_step(model, state)
+    for _ in range(n_steps // 100):
+        explicit.advance(model, state, 100)
+    return state
+
+
+@pytest.mark.parametrize("nu", [0.0, 0.3])
+def test_plane_model_steps_as_its_slab(nu):
+    """DESIGN.md §9: the plane passes give the one-block-thick 3D slab's
+    motion (blocks in plane stress: the same constants, E0 = E, α = 1/(1 +
+    ν)) to 1e-6 of the largest displacement, the work of the load to 1e-9,
+    over 2 000 steps of a cantilever swinging under a ramped tip load."""
+    c2, m2 = _cantilever(True, nu)
+    c3, m3 = _cantilever(False, nu)
+    assert m2.plane == "stress" and not m3.plane
+    assert m2.n_springs * 2 == m3.n_springs       # 2 points per edge, 4 per slab face
+    dt = 0.8 * min(m2.stable_dt(), m3.stable_dt())
+    s2 = _run(c2, m2, dt, 2000)
+    s3 = _run(c3, m3, dt, 2000)
+    assert s2.plane is not None and s3.plane is None    # stepped on the plane passes
+    d2 = s2.body_pos[:-1] - m2.body_pos0[:-1]
+    d3 = s3.body_pos[:-1] - m3.body_pos0[:-1]
+    scale = np.abs(d3).max()
+    assert scale > 1e-4                               # it did swing (tip ≈ 0.7 mm)
+    assert np.abs(d2 - d3).max() <= 1e-6 * scale
+    assert np.abs(s2.body_quat - s3.body_quat).max() <= 1e-6 * np.abs(s3.body_dq[:, 3]).max()
+    assert abs(s2.body_work.sum() - s3.body_work.sum()) <= 1e-9 * abs(s3.body_work.sum())
+
+
+def test_plane_stress_cantilever_against_timoshenko(run_case):
+    """A plane-stress block cantilever (L/h = 20, 100 × 5 blocks, ν = 0)
+    under a static tip load P by Newton (`python -m rbsm_dyn`): tip
+    deflection within 1 % of Timoshenko's beam, δ = P L³/(3EI) + P L/(κ G A)
+    with κ = 5/6 and L the lever arm of the load (the loaded cells'
+    centroids at x = 0.995 m), and the support's reaction balancing P."""
+    h = run_case("""
+        name: cant2d
+        plane: {kind: stress, thickness: 0.01}
+        domain: {box: [[0, 0], [1.0, 0.05]]}
+        mesh: {kind: blocks, divisions: [100, 5]}
+        materials: {steel: {density: 7800, young: 200.0e9, poisson: 0.0}}
+        groups: {tip: {box: [[0.99, -1], [1.1, 1]]}}
+        boundary: [{face: xmin, fix: all}]
+        loads: [{group: tip, force: [0, -100.0]}]
+        solver: {mode: static}
+        output:
+          probes:
+            uy: {group: tip, quantity: displacement, component: y, reduce: mean}
+            R: {surface: xmin, quantity: reaction, component: y, reduce: sum}
+        """)
+    P, L, hh, t, E = 100.0, 0.995, 0.05, 0.01, 200e9
+    inertia, area, G = t * hh ** 3 / 12, t * hh, E / 2
+    exact = P * L ** 3 / (3 * E * inertia) + P * L / (5 / 6 * G * area)
+    assert -h.observables["uy"][-1] == pytest.approx(exact, rel=0.01)
+    assert h.observables["R"][-1] == pytest.approx(P, rel=1e-6)
+
+
+@pytest.mark.parametrize("text, where, what", [
+    ("domain: {box: [[0, 0, 0], [1, 1, 1]]}", "domain.box", "[[x0, y0], [x1, y1]]"),
+    ("domain: {cylinder: {base: [0, 0, 0], axis: [0, 0, 1], radius: 1}}", "domain.cylinder",
+     "2D"),
+    ("domain: {circle: {center: [0, 0]}}", "domain.cylinder.radius", "a number"),
+    ("domain: {box: [[0, 0], [1, 1]]}\nmesh: {kind: blocks, divisions: [2, 2, 2]}",
+     "mesh.divisions", "one cell through its thickness"),
+])
+def test_plane_input_errors_name_the_key(text, where, what):
+    """A plane case's geometry is 2D; a bad one is refused at its key."""
+    mesh = "" if "mesh:" in text else "mesh: {kind: blocks, divisions: [2, 2]}"
+    case = f"""
+name: p
+plane: {{kind: strain, thickness: 0.1}}
+{text}
+{mesh}
+materials: {{m: {{density: 1000, young: 1.0e9, poisson: 0.0}}}}
+solver: {{mode: dynamic, end_time: 1e-3}}
+"""
+    with pytest.raises(CaseError) as err:
+        load_case_text(case)
+    assert err.value.path == where and what in err.value.message
+
+
+def test_plane_lift_gives_the_slab():
+    """2D points, boxes, moments and divisions become the slab's: z = 0,
+    z ∈ [−t/2, t/2] for the domain, one cell through the thickness."""
+    case = load_case_text("""
+name: p
+plane: {kind: strain, thickness: 0.1}
+domain: {difference: [{box: [[0, 0], [2, 1]]}, {circle: {center: [1, 0.5], radius: 0.2}}]}
+mesh: {kind: blocks, divisions: [8, 4]}
+materials: {m: {density: 1000, young: 1.0e9, poisson: 0.0}}
+groups: {g: {box: [[0, 0], [0.5, 1]]}}
+loads: [{group: g, force: [1.0, 2.0], moment: 3.0}]
+initial: [{group: g, velocity: [1.0, 0.0], angular_velocity: 2.0}]
+solver: {mode: dynamic, end_time: 1e-3}
+""")
+    assert case.mesh.divisions == [8, 4, 1]
+    assert case.domain.difference[0]["box"] == [[0, 0, -0.05], [2, 1, 0.05]]
+    assert case.domain.difference[1]["cylinder"]["axis"] == [0.0, 0.0, 0.1]
+    assert case.groups["g"].box == [[0, 0, -0.1], [0.5, 1, 0.1]]
+    assert case.loads[0].force == [1.0, 2.0, 0.0] and case.loads[0].moment == [0, 0, 3.0]
+    assert case.initial[0].angular_velocity == [0, 0, 2.0]
+    model = build_model(case)
+    # every cell a prism of the slab; the cells fill the plate less its
+    # (faceted) hole: the solid's volume, to the slivers the clip merges
+    from rbsm_dyn.case import domain_solid
+    assert np.allclose(model.mesh.box[:, 2], [-0.05, 0.05])
+    assert model.mesh.cell_volume.sum() == pytest.approx(domain_solid(case).volume, rel=1e-9)
+    assert np.all(np.abs(model.spring_point[:, 2]) < 1e-12)
