@@ -186,14 +186,48 @@ def plane_stiffness_rule(rule, mesh_kind, young, poisson, kind):
       E0 = E*; shear of the square lattice G = α E0/2 gives α = 1/(1 + ν*)
       (the 3D blocks' rule with E*, ν*: a one-cell slab of blocks in plane
       stress is the plane model).
+    * `calibrated` on Voronoi: α for ν* and E0 = E*/(E/E0)(α) from
+      PLANE_VORONOI_TABLE (ν* from −0.045 to 0.436: plane stress up to
+      ν = 0.43, plane strain up to 0.30; no auxiliary stress needed).
 
-    Raises ValueError for what the plane lattice does not calibrate yet
-    (Voronoi, the auxiliary stress)."""
+    Raises ValueError for a ν* outside the table and for `homogeneous`
+    (the plane auxiliary stress is not built yet)."""
     es, nus = plane_moduli(kind, young, poisson)
     if rule == "kawai":
         e0 = es / (1.0 - nus ** 2)
         return e0, es / (2.0 * (1.0 + nus)) / e0, 0.0
-    if mesh_kind == "blocks" and rule == "calibrated":
-        return es, 1.0 / (1.0 + nus), 0.0
-    raise ValueError(f"stiffness: {rule} is not available in a plane model on a "
-                     f"{mesh_kind} mesh yet (blocks: calibrated or kawai)")
+    if rule == "calibrated":
+        if mesh_kind == "blocks":
+            return es, 1.0 / (1.0 + nus), 0.0
+        table = PLANE_VORONOI_TABLE[np.argsort(PLANE_VORONOI_TABLE[:, 2])]
+        nu = table[:, 2]
+        if not (nu[0] - 1e-12 <= nus <= nu[-1] + 1e-12):
+            raise ValueError(f"the plane Voronoi lattice reaches an in-plane ν* in "
+                             f"[{nu[0]:.3f}, {nu[-1]:.3f}] (got ν* = {nus:.4g} of ν = "
+                             f"{poisson} in plane {kind})")
+        alpha = float(np.interp(nus, nu, table[:, 0]))
+        return es / float(np.interp(nus, nu, table[:, 1])), alpha, 0.0
+    raise ValueError(f"stiffness: {rule} is not available in a plane model yet "
+                     f"(calibrated or kawai)")
+
+
+# Plane Voronoi (mesh/voronoi_plane.py, min_spacing 0.5, moment spring
+# points): (α, E*/E0, ν*) measured by benchmarks/calibrate_plane.py on
+# 2026-11-26: unit square of ~1 000 cells, seeds 1, 2, 3, uniaxial stress
+# along x and y; mean of the 6 samples (spread ±0.0014–0.0043 in E/E0,
+# ±0.0005–0.0069 in ν*; docs/calibration.md)
+PLANE_VORONOI_TABLE = np.array([
+    # alpha, E/E0, nu*
+    [1.20, 1.0573, -0.0454],
+    [1.10, 1.0347, -0.0228],
+    [1.00, 1.0101, 0.0016],
+    [0.90, 0.9834, 0.0283],
+    [0.80, 0.9539, 0.0576],
+    [0.70, 0.9213, 0.0901],
+    [0.60, 0.8848, 0.1265],
+    [0.50, 0.8433, 0.1678],
+    [0.40, 0.7952, 0.2157],
+    [0.30, 0.7379, 0.2724],
+    [0.20, 0.6667, 0.3425],
+    [0.10, 0.5709, 0.4356],
+])

@@ -271,8 +271,16 @@ def uniaxial_moduli(model, axes=(0, 1, 2), core=0.25, stress=1.0, K=None):
 
     stress: σ [Pa] (the result does not depend on it: linear).
     K: the stiffness (default `stiffness_matrix(model)`).
+    A plane model (Model.plane) is tested in its plane: axes x and y, the
+    strain fitted in x–y, ν = −ε_jj/ε_kk (the in-plane ν*; z, rx, ry held
+    as the model holds them).
     Returns E (len(axes),) [Pa] and ν (len(axes),)."""
-    if np.any(model.is_support) or np.any(model.dof_kind != FREE):
+    plane = bool(getattr(model, "plane", ""))
+    held = model.dof_kind.copy()
+    if plane:
+        held[:, 2:5] = FREE
+        axes = tuple(k for k in axes if k < 2)
+    if np.any(model.is_support) or np.any(held != FREE):
         raise ValueError("uniaxial_moduli needs a model without supports or constraints")
     mesh = model.mesh
     n = model.n_bodies
@@ -292,6 +300,8 @@ def uniaxial_moduli(model, axes=(0, 1, 2), core=0.25, stress=1.0, K=None):
     pin = int(np.argmin(np.linalg.norm(x - centre, axis=1)))
     kind = np.zeros((n, 6), dtype=np.int8)
     kind[pin] = FIXED
+    if plane:
+        kind[:, 2:5] = FIXED
     U, _ = solve_linear(model, load, K=K, kind=kind, value=np.zeros((n, 6)))
     E = np.empty(len(axes))
     nu = np.empty(len(axes))
@@ -299,12 +309,13 @@ def uniaxial_moduli(model, axes=(0, 1, 2), core=0.25, stress=1.0, K=None):
     for col, k in enumerate(axes):
         length = box_hi[k] - box_lo[k]
         sel = ((x[:, k] >= box_lo[k] + core * length) & (x[:, k] <= box_hi[k] - core * length))
-        A = np.hstack([np.ones((sel.sum(), 1)), x[sel] - centre])
+        dim = 2 if plane else 3
+        A = np.hstack([np.ones((sel.sum(), 1)), (x[sel] - centre)[:, :dim]])
         sw = np.sqrt(w[sel])[:, None]
-        coef, *_ = np.linalg.lstsq(A * sw, U[sel, :3, col] * sw, rcond=None)
+        coef, *_ = np.linalg.lstsq(A * sw, U[sel, :dim, col] * sw, rcond=None)
         G = coef[1:].T                                  # G[i, j] = ∂u_i/∂x_j
         eps = 0.5 * (G + G.T)
-        lat = [j for j in range(3) if j != k]
+        lat = [j for j in range(dim) if j != k]
         E[col] = stress / eps[k, k]
-        nu[col] = -(eps[lat[0], lat[0]] + eps[lat[1], lat[1]]) / (2 * eps[k, k])
+        nu[col] = -sum(eps[j, j] for j in lat) / (len(lat) * eps[k, k])
     return E, nu

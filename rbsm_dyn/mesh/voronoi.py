@@ -67,11 +67,13 @@ def _morton_order(points, lo, h):
     return np.argsort(key, kind="stable")
 
 
-def voronoi_seeds(box, size, seed=0, min_spacing=0.5, n=None):
+def voronoi_seeds(box, size, seed=0, min_spacing=0.5, n=None, plane=False):
     """The seed points used by ``voronoi_mesh`` (Morton-ordered), shape (N, 3).
 
     N = ``n`` if given, else max(1, round(volume / size³)).  Any two seeds are
-    at least ``min_spacing * size`` apart.
+    at least ``min_spacing * size`` apart.  ``plane``: seeds of a plane
+    model (mesh/voronoi_plane.py), on the box's mid-plane in z, N =
+    round(area / size²).
     """
     box = check_box(box)
     if not size > 0:
@@ -79,7 +81,12 @@ def voronoi_seeds(box, size, seed=0, min_spacing=0.5, n=None):
     if not 0 <= min_spacing < 1.0:
         raise ValueError(f"min_spacing must be in [0, 1), got {min_spacing!r}")
     lo, hi = box
-    vol = float(np.prod(hi - lo))
+    if plane:
+        lo, hi = lo.copy(), hi.copy()
+        lo[2] = hi[2] = 0.5 * (lo[2] + hi[2])
+        vol = float(np.prod((hi - lo)[:2])) * size
+    else:
+        vol = float(np.prod(hi - lo))
     N = max(1, int(round(vol / size**3))) if n is None else int(n)
     r = float(min_spacing) * size
     rng = np.random.default_rng(seed)

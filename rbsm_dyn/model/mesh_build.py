@@ -4,6 +4,7 @@ import numpy as np
 
 from ..mesh import block_mesh, voronoi_mesh, voronoi_seeds
 from ..mesh.cut_seeds import mirror_across_cuts
+from ..mesh.voronoi_plane import plane_voronoi_mesh
 
 
 def build_mesh(case):
@@ -82,10 +83,13 @@ def part_mesh(case, part):
         box = np.asarray(part.geometry.box, dtype=float)
         if m.kind == "blocks":
             return block_mesh(box, tuple(m.divisions))
-        seeds = voronoi_seeds(box, m.size, seed=m.seed, min_spacing=m.min_spacing)
+        plane = case.plane is not None
+        seeds = voronoi_seeds(box, m.size, seed=m.seed, min_spacing=m.min_spacing, plane=plane)
         # a cut's plane made of cell faces (mesh/cut_seeds.py); a box of one
         # cell is the box itself, cut or not
         seeds = mirror_across_cuts(seeds, case.cuts, m.size, m.min_spacing, box)
+        if plane:
+            return plane_voronoi_mesh(box, m.size, seeds)
         if len(seeds) < 2:
             return block_mesh(box, (1, 1, 1))
         return voronoi_mesh(box, m.size, seeds=seeds)
@@ -96,15 +100,21 @@ def part_mesh(case, part):
         cells = block_mesh(np.array([lo, hi]), tuple(m.divisions))
     else:
         # a margin of half a cell: no side of the box on the solid's surface
-        box = np.array([lo - 0.5 * m.size, hi + 0.5 * m.size])
-        seeds = voronoi_seeds(box, m.size, seed=m.seed, min_spacing=m.min_spacing)
+        # (a plane model's slab: none in z, its cells are prisms through it)
+        plane = case.plane is not None
+        margin = np.array([0.5, 0.5, 0.0 if plane else 0.5]) * m.size
+        box = np.array([lo - margin, hi + margin])
+        seeds = voronoi_seeds(box, m.size, seed=m.seed, min_spacing=m.min_spacing, plane=plane)
         seeds = mirror_across_cuts(seeds, case.cuts, m.size, m.min_spacing, box)
         seeds = seeds[solid.contains(seeds)]
         if len(seeds) == 0:
             raise case.error(part.mesh_path + ("size",), "no cell seed falls inside the "
                              "solid: make the cells smaller than the solid")
-        from ..mesh.voronoi import voronoi_cells
-        cells = voronoi_cells(seeds, m.size, box)
+        if plane:
+            cells = plane_voronoi_mesh(box, m.size, seeds)
+        else:
+            from ..mesh.voronoi import voronoi_cells
+            cells = voronoi_cells(seeds, m.size, box)
     try:
         return clip_to_solid(cells, solid.vertices, solid.triangles, solid.tri_surface,
                              solid.surface_names, box=np.array([lo, hi]),
