@@ -28,6 +28,11 @@ class State:
     spring_wp, spring_wf (S,) [J] plastic and fracture dissipation;
     with the Poisson correction also cell_chi (N,) χ_c at the last step
     and cell_wf (N,) [J] the energy released by its fall (physics/poisson.py).
+    Plane models (length N+1 when Model.plane, else 0): body_theta [rad]
+    the rotation about z from rest, body_omega [rad/s] at the half step:
+    the plane passes' own (solvers/plane.py), saved by checkpoints so that
+    a restart goes on bit for bit; plane_synced: they hold the plane
+    state's values (else they are taken from the slab's arrays first).
     Poisson correction scratch (length 0 unless Model.poisson_on; not
     saved by checkpoints): aux_g (n_slots, 3) [1/m], aux_p (7, N)
     (physics/poisson.py poisson_pass)."""
@@ -53,8 +58,11 @@ class State:
     cell_wf: np.ndarray = None
     aux_g: np.ndarray = None
     aux_p: np.ndarray = None
+    body_theta: np.ndarray = None
+    body_omega: np.ndarray = None
     contact: object = None        # contact.ContactState when Model.contact
     plane: object = None          # a plane model's PlaneState between chunks (solvers/plane.py)
+    plane_synced: bool = False    # body_theta, body_omega hold the plane state's
     step: int = 0
     dt: float = 0.0
 
@@ -83,6 +91,9 @@ def new_state(model):
     ci = n if (si and on) else 0
     st.cell_chi = np.ones(ci)      # no link is damaged at the start (cuts are no links)
     st.cell_wf = np.zeros(ci)
+    npl = n + 1 if model.plane else 0
+    st.body_theta = np.zeros(npl)
+    st.body_omega = np.zeros(npl)
     st.aux_g = np.zeros((len(model.poisson.slot_cell) if on else 0, 3))
     st.aux_p = np.zeros((7, n if on else 0))
     refresh_all_rotations(n + 1, st.body_quat, model.body_quat0, st.body_rot, st.body_dq)

@@ -57,9 +57,9 @@ SLOTS = ("slot0", "slot1")
 ARRAYS = ("body_pos", "body_quat", "body_vel", "body_angmom", "body_rot", "body_dq",
           "body_wrench", "body_support", "spring_force", "body_work", "body_damp",
           "body_reaction", "spring_state", "spring_dp", "spring_kappa", "spring_dmg",
-          "spring_wp", "spring_wf", "cell_chi", "cell_wf")
+          "spring_wp", "spring_wf", "cell_chi", "cell_wf", "body_theta", "body_omega")
 #: State arrays a checkpoint of an older rbsm_dyn lacks (the new state's values kept)
-OPTIONAL = ("cell_chi", "cell_wf")
+OPTIONAL = ("cell_chi", "cell_wf", "body_theta", "body_omega")
 #: ContactState arrays saved: one row per candidate pair (grow as pairs come)
 CONTACT_PAIR_ARRAYS = ("pairs", "slip", "sep", "out")
 #: ... and one row per body
@@ -386,6 +386,8 @@ def load_for_restart(case, model, path, *, writer_alive=None):
         setattr(state, a, np.ascontiguousarray(saved))
     if model.contact is not None:
         _restore_contact(state, model, data["contact"], path)
+    # a plane model's θ, ω as they were (solvers/plane.py), not from the slab's
+    state.plane_synced = len(state.body_theta) > 0 and "body_theta" in data
     state.step = int(data["step"])
     state.dt = float(data["dt"])
     return state, data

@@ -78,20 +78,26 @@ def plane_arrays(model):
 
 def plane_state(model, state):
     """The PlaneState of `state`: the one kept on it by the last chunk, or
-    projected from the slab arrays (a new state, a restart, a state a
-    static solver changed: callers set state.plane = None then)."""
+    made from the slab's arrays (positions, velocities, reactions: they
+    round-trip exactly) and the state's θ, ω (body_theta, body_omega),
+    which are taken from the slab's rotations and angular momenta first
+    unless they hold the plane state's already (state.plane_synced: after
+    a chunk, or restored by a restart, bit for bit)."""
     ps = state.plane
     if ps is not None:
         return ps
     n = model.n_bodies
     bodies, _, _ = plane_arrays(model)
-    dq = state.body_dq                                      # q q0⁻¹: a turn about z
-    theta = 2.0 * np.arctan2(dq[:, 3], dq[:, 0])
-    ang = np.zeros(n + 1)
-    ang[:n] = state.body_angmom[:n, 2] / bodies.body_jz
+    theta, omega = state.body_theta, state.body_omega
+    if not state.plane_synced:
+        dq = state.body_dq                                  # q q0⁻¹: a turn about z
+        theta[:] = 2.0 * np.arctan2(dq[:, 3], dq[:, 0])
+        omega[:n] = state.body_angmom[:n, 2] / bodies.body_jz
+        omega[n] = 0.0
+        state.plane_synced = True
     ps = PlaneState(body_pos=np.ascontiguousarray(state.body_pos[:, :2]), body_theta=theta,
                     body_cs=np.ascontiguousarray(np.stack([np.cos(theta), np.sin(theta)], 1)),
-                    body_vel=np.ascontiguousarray(state.body_vel[:, :2]), body_omega=ang,
+                    body_vel=np.ascontiguousarray(state.body_vel[:, :2]), body_omega=omega,
                     body_wrench=np.zeros((n + 1, 3)), body_support=np.zeros((n + 1, 2)),
                     body_work=state.body_work, body_damp=state.body_damp,
                     body_reaction=np.ascontiguousarray(state.body_reaction[:, :2]),
