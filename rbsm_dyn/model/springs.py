@@ -29,6 +29,19 @@ def _arms(rot, pos0, sb, point, arm_a, arm_b):
                 out[s, c] = rot[i, 0, c] * d0 + rot[i, 1, c] * d1 + rot[i, 2, c] * d2
 
 
+def plane_frames(normal):
+    """Quaternions of the frames (n, e_z × n, e_z) of in-plane unit normals
+    (S, 3): a plane model's springs shear along the edge's tangent in the
+    plane (s) and across the slab (t), the convention the plane passes
+    (physics/plane.py) keep their history in."""
+    n = np.asarray(normal, dtype=float).copy()
+    n[:, 2] = 0.0
+    n /= np.linalg.norm(n, axis=1)[:, None]
+    tau = np.stack([-n[:, 1], n[:, 0], np.zeros(len(n))], axis=1)
+    ez = np.broadcast_to([0.0, 0.0, 1.0], n.shape)
+    return np.ascontiguousarray(matrix_to_quat(np.stack([n, tau, ez], axis=2)))
+
+
 def _frames_from_normals(normal):
     """Quaternions of right-handed frames (n, s, t) for unit normals (S, 3)."""
     out = np.empty((len(normal), 4))
@@ -90,7 +103,8 @@ def internal_springs(case, mesh, parts, body_part, body_rigid, laws):
     law, state0 = _internal_laws(case, mesh, f, a, b, body_rigid, laws, keep)
     internal = dict(a=a, b=b, point=sp.point, area=sp.weight, h=h_a + h_b,
                     kpa=np.stack([kn, ks, ks], axis=1),
-                    frame=_frames_from_normals(nrm), face=f.astype(IDX), law=law, state0=state0)
+                    frame=_frames_from_normals(nrm) if case.plane is None else plane_frames(nrm),
+                    face=f.astype(IDX), law=law, state0=state0)
     return internal, n_cut
 
 
@@ -210,7 +224,19 @@ def _support(case, mesh, parts, body_part, laws, j, item, name, fix, sel):
     axis_of = np.argmax(np.abs(nrm_b), axis=1)
     aligned = np.abs(nrm_b[np.arange(len(bf)), axis_of]) > 1.0 - 1e-12
     k = np.stack([kk, alpha[cell] * kk, alpha[cell] * kk], axis=1)
-    if np.all(aligned) and len(np.unique(axis_of)) == 1:
+    if case.plane is not None:
+        # the plane frames (n, e_z × n, e_z); on an edge normal to x or y the
+        # components not in `fix` are free (k = 0), on a slanted edge only
+        # fix: all is defined
+        frames = plane_frames(nrm_b)
+        if np.all(aligned):
+            tau_axis = 1 - axis_of                          # x-normal: τ along y, and back
+            k[:, 0] *= np.isin(np.array(list("xyz"))[axis_of], fix)
+            k[:, 1] *= np.isin(np.array(list("xyz"))[tau_axis], fix)
+        elif not {"x", "y"} <= set(fix):
+            raise case.error(("boundary", j, "fix"), f"surface {name} is not normal to "
+                             "one axis: only fix: all (or [x, y]) is possible on it")
+    elif np.all(aligned) and len(np.unique(axis_of)) == 1:
         frames = _axis_frames(nrm_b, int(axis_of[0]), fix, k)
     else:
         # a curved or slanted surface: the springs' frame is the face's

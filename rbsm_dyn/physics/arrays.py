@@ -259,7 +259,8 @@ class PlaneSprings(NamedTuple):
     spring_arm_a, spring_arm_b (S, 2) [m] arms at rest (world axes);
     spring_slot (S,) int32; spring_area (S,) [m²]; face_n0 (F, 2) the rest
     normal from a to b; face_k (F, 2) [N/m³] (k_n, k_s) per area, k_s along
-    e_z × n; group_ptr, phase_ptr the schedule (partition.py)."""
+    e_z × n; face_h (F,) [m]; face_law (F,) int32; law_params (L,
+    N_PARAMS); group_ptr, phase_ptr the schedule (partition.py)."""
     spring_bodies: np.ndarray
     spring_arm_a: np.ndarray
     spring_arm_b: np.ndarray
@@ -267,6 +268,9 @@ class PlaneSprings(NamedTuple):
     spring_area: np.ndarray
     face_n0: np.ndarray
     face_k: np.ndarray
+    face_h: np.ndarray
+    face_law: np.ndarray
+    law_params: np.ndarray
     group_ptr: np.ndarray
     phase_ptr: np.ndarray
 

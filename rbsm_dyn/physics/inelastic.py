@@ -88,6 +88,164 @@ def _crossing_share(r, rho):
 
 
 @nb.njit(inline="always", **JIT)
+def spring_law(s, f, dn, ds, dt, turned, area, kn, ks, kt, face_h, face_law, law_params,
+               spring_state, spring_dp, spring_kappa, spring_dmg, spring_wp, spring_wf,
+               substep):
+    """The inelastic law of spring point s (of face f) at its local gap
+    (dn, ds, dt) [m] in the turned spring frame: its traction's forces
+    (fn, fs, ft) [N], the history updated (module docstring, steps 1-4,
+    and the contact of a broken spring).  kn, ks, kt [N/m] the point's
+    stiffness (area [m²] × the face's per area); `turned`: the pair has
+    turned by more than a right angle against each other (a broken pair
+    then parts).  Shared by the 3D pass (_inelastic_group) and the plane
+    pass (physics/plane.py), which differ only in their kinematics."""
+    li = face_law[f]           # the law's row (scalars read in place: a row view
+                               # costs a reference count per spring)
+    state = spring_state[s]
+    fn = fs = ft = 0.0
+    gn = gs = gt = lam = 0.0
+    crossed = False            # strain law broken inside this step (substep)
+    if state < BROKEN:
+        en = dn - spring_dp[s, 0]
+        es = ds - spring_dp[s, 1]
+        et = dt - spring_dp[s, 2]
+        dmg = spring_dmg[s]
+        rupt = law_params[li, P_RUPT]
+        if rupt == SOFTENING:
+            kappa = spring_kappa[s]
+            if en > kappa:
+                kappa = en
+                spring_kappa[s] = kappa
+                dnew = softening_damage(kappa, kn / area, law_params[li, P_FT],
+                                        law_params[li, P_GF])
+                if dnew > dmg:
+                    # energy release rate Y = ½ k e² (undamaged springs; en > 0)
+                    y = 0.5 * (kn * en * en + ks * es * es + kt * et * et)
+                    spring_wf[s] += y * (dnew - dmg)
+                    dmg = dnew
+                    spring_dmg[s] = dmg
+        elif rupt == MIXED:
+            dnew, w = mixed_mode_damage(en, es, et, kn / area, ks / area, kt / area,
+                                        law_params[li, P_FT], law_params[li, P_GF],
+                                        law_params[li, P_RS], law_params[li, P_GS])
+            if dnew > dmg:
+                # Y = −∂U/∂D, U = ½ (1 − D)(kn ⟨en⟩² + ks es² + kt et²) + ½ kn ⟨−en⟩²,
+                # taken at the product of this step's and the last step's
+                # equivalent openings (Y w_prev/w): with the leapfrog's
+                # kinetic energy change ½ (f_n + f_n+1)·Δx, the damage
+                # released between two steps is then booked exactly, where
+                # Y(e_n+1) overstates it by ½ k e Δe ΔD (energy created
+                # in fast fracture: +2–5 % of the work measured before)
+                pn = en if en > 0.0 else 0.0
+                y = 0.5 * (kn * pn * pn + ks * es * es + kt * et * et)
+                if w > 0.0:
+                    y *= spring_kappa[s] / w
+                spring_wf[s] += y * (dnew - dmg)
+                dmg = dnew
+                spring_dmg[s] = dmg
+            spring_kappa[s] = w      # equivalent opening of this step
+        fn = kn * en
+        if fn > 0.0:
+            fn *= 1.0 - dmg          # a crack transmits no tension ...
+        fs = (1.0 - dmg) * ks * es   # ... and less shear
+        ft = (1.0 - dmg) * kt * et
+        crit = law_params[li, P_CRIT]
+        if crit > 0:
+            gn, gs, gt, yielded = plastic_return(int(crit), law_params[li, P_SY] * area,
+                                                 law_params[li, P_COH] * area,
+                                                 law_params[li, P_TANPHI],
+                                                 law_params[li, P_TENSION] * area,
+                                                 kn, ks, fn, fs, ft)
+            if yielded:
+                # (a support may hold only some components: k = 0 there)
+                pn = (fn - gn) / kn if kn > 0.0 else 0.0
+                ps = (fs - gs) / ks if ks > 0.0 else 0.0
+                pt = (ft - gt) / kt if kt > 0.0 else 0.0
+                spring_dp[s, 0] += pn
+                spring_dp[s, 1] += ps
+                spring_dp[s, 2] += pt
+                spring_wp[s] += gn * pn + gs * ps + gt * pt
+                fn, fs, ft = gn, gs, gt
+                en -= pn
+                es -= ps
+                et -= pt
+                state = YIELDED
+        broken = dmg >= 1.0
+        if rupt == STRAIN:
+            eps = equivalent_strain(dn, ds, dt, face_h[f])
+            eps0 = spring_kappa[s]       # the last step's equivalent strain
+            spring_kappa[s] = eps
+            if eps >= law_params[li, P_EPSCR]:
+                broken = True
+                if substep and state == ELASTIC:
+                    crossed = True
+                    lam = _crossing_share(eps0 / eps, law_params[li, P_EPSCR] / eps)
+        if broken:
+            # stored energy before (with damage) minus what contact keeps
+            e_in = 0.5 * (fn * en + fs * es + ft * et)
+            released = e_in - _contact_energy(kn, dn)
+            if crossed:
+                # threshold crossed inside the step: the work of the
+                # released force over this step, (r + λ (1 − r)) of the
+                # energy now (_crossing_share); the rest of the share's
+                # work is booked at the next step
+                r = eps0 / eps
+                released *= r + lam * (1.0 - r)
+            spring_wf[s] += released
+            state = BROKEN
+            spring_dp[s, 0] = 0.0
+            spring_dp[s, 1] = ds
+            spring_dp[s, 2] = dt
+            if rupt == STRAIN:
+                spring_kappa[s] = 0.0        # broken: no share pending ...
+            if crossed:
+                # intact force at this step, minus what contact takes over below
+                gn, gs, gt = fn, fs, ft
+                # ... unless kept: λ and the released gap (the slip
+                # memory holds δs, δt until the next step)
+                spring_kappa[s] = lam
+                spring_dp[s, 0] = dn if dn > 0.0 else 0.0
+        spring_state[s] = state
+    if state >= BROKEN:
+        lam0 = spring_kappa[s]
+        if law_params[li, P_RUPT] == STRAIN and not crossed and lam0 != 0.0 and lam0 != np.inf:
+            # the share λ k e_n kept at the breaking step n does work
+            # over this step too (trapezoidal rule, _crossing_share):
+            # ½ λ k e_n·(δ − e_n), fracture energy
+            e0 = spring_dp[s, 0]
+            e1 = spring_dp[s, 1]
+            e2 = spring_dp[s, 2]
+            spring_wf[s] += 0.5 * lam0 * (kn * e0 * (dn - e0) + ks * e1 * (ds - e1)
+                                          + kt * e2 * (dt - e2))
+            spring_kappa[s] = 0.0
+            spring_dp[s, 0] = 0.0
+        if (dn * dn + ds * ds + dt * dt > face_h[f] * face_h[f]
+                or turned):
+            # moved apart by a whole spring length (opened, slid or turned
+            # away), or turned by more than a right angle against each
+            # other (the mid frame is no longer the face's): the two cells
+            # have parted and no longer meet at this face (RBSM contact is
+            # between the original neighbours only)
+            spring_kappa[s] = np.inf
+        ss0 = spring_dp[s, 1]
+        st0 = spring_dp[s, 2]
+        mu = law_params[li, P_MU] if spring_kappa[s] != np.inf else CONTACT_OFF
+        fn, fs, ft, ss1, st1, closed = contact_traction(mu, kn, ks, kt, dn, ds, dt,
+                                                            ss0, st0)
+        if closed:
+            # friction work on the slip increment
+            spring_wp[s] += fs * (ss1 - ss0) + ft * (st1 - st0)
+        spring_dp[s, 1] = ss1
+        spring_dp[s, 2] = st1
+        spring_state[s] = CONTACT if closed else BROKEN
+        if crossed:
+            fn += lam * (gn - fn)
+            fs += lam * (gs - fs)
+            ft += lam * (gt - ft)
+    return fn, fs, ft
+
+
+@nb.njit(inline="always", **JIT)
 def _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
                      spring_slot, face_frame0, face_k, spring_area, face_h, face_law, law_params,
                      body_pos, body_rot, body_dq, body_wrench, body_support,
@@ -131,149 +289,9 @@ def _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
         kn = face_k[f, 0] * area
         ks = face_k[f, 1] * area
         kt = face_k[f, 2] * area
-        li = face_law[f]           # the law's row (scalars read in place: a row view
-                                   # costs a reference count per spring)
-        state = spring_state[s]
-        fn = fs = ft = 0.0
-        gn = gs = gt = lam = 0.0
-        crossed = False            # strain law broken inside this step (substep)
-        if state < BROKEN:
-            en = dn - spring_dp[s, 0]
-            es = ds - spring_dp[s, 1]
-            et = dt - spring_dp[s, 2]
-            dmg = spring_dmg[s]
-            rupt = law_params[li, P_RUPT]
-            if rupt == SOFTENING:
-                kappa = spring_kappa[s]
-                if en > kappa:
-                    kappa = en
-                    spring_kappa[s] = kappa
-                    dnew = softening_damage(kappa, kn / area, law_params[li, P_FT],
-                                            law_params[li, P_GF])
-                    if dnew > dmg:
-                        # energy release rate Y = ½ k e² (undamaged springs; en > 0)
-                        y = 0.5 * (kn * en * en + ks * es * es + kt * et * et)
-                        spring_wf[s] += y * (dnew - dmg)
-                        dmg = dnew
-                        spring_dmg[s] = dmg
-            elif rupt == MIXED:
-                dnew, w = mixed_mode_damage(en, es, et, kn / area, ks / area, kt / area,
-                                            law_params[li, P_FT], law_params[li, P_GF],
-                                            law_params[li, P_RS], law_params[li, P_GS])
-                if dnew > dmg:
-                    # Y = −∂U/∂D, U = ½ (1 − D)(kn ⟨en⟩² + ks es² + kt et²) + ½ kn ⟨−en⟩²,
-                    # taken at the product of this step's and the last step's
-                    # equivalent openings (Y w_prev/w): with the leapfrog's
-                    # kinetic energy change ½ (f_n + f_n+1)·Δx, the damage
-                    # released between two steps is then booked exactly, where
-                    # Y(e_n+1) overstates it by ½ k e Δe ΔD (energy created
-                    # in fast fracture: +2–5 % of the work measured before)
-                    pn = en if en > 0.0 else 0.0
-                    y = 0.5 * (kn * pn * pn + ks * es * es + kt * et * et)
-                    if w > 0.0:
-                        y *= spring_kappa[s] / w
-                    spring_wf[s] += y * (dnew - dmg)
-                    dmg = dnew
-                    spring_dmg[s] = dmg
-                spring_kappa[s] = w      # equivalent opening of this step
-            fn = kn * en
-            if fn > 0.0:
-                fn *= 1.0 - dmg          # a crack transmits no tension ...
-            fs = (1.0 - dmg) * ks * es   # ... and less shear
-            ft = (1.0 - dmg) * kt * et
-            crit = law_params[li, P_CRIT]
-            if crit > 0:
-                gn, gs, gt, yielded = plastic_return(int(crit), law_params[li, P_SY] * area,
-                                                     law_params[li, P_COH] * area,
-                                                     law_params[li, P_TANPHI],
-                                                     law_params[li, P_TENSION] * area,
-                                                     kn, ks, fn, fs, ft)
-                if yielded:
-                    # (a support may hold only some components: k = 0 there)
-                    pn = (fn - gn) / kn if kn > 0.0 else 0.0
-                    ps = (fs - gs) / ks if ks > 0.0 else 0.0
-                    pt = (ft - gt) / kt if kt > 0.0 else 0.0
-                    spring_dp[s, 0] += pn
-                    spring_dp[s, 1] += ps
-                    spring_dp[s, 2] += pt
-                    spring_wp[s] += gn * pn + gs * ps + gt * pt
-                    fn, fs, ft = gn, gs, gt
-                    en -= pn
-                    es -= ps
-                    et -= pt
-                    state = YIELDED
-            broken = dmg >= 1.0
-            if rupt == STRAIN:
-                eps = equivalent_strain(dn, ds, dt, face_h[f])
-                eps0 = spring_kappa[s]       # the last step's equivalent strain
-                spring_kappa[s] = eps
-                if eps >= law_params[li, P_EPSCR]:
-                    broken = True
-                    if substep and state == ELASTIC:
-                        crossed = True
-                        lam = _crossing_share(eps0 / eps, law_params[li, P_EPSCR] / eps)
-            if broken:
-                # stored energy before (with damage) minus what contact keeps
-                e_in = 0.5 * (fn * en + fs * es + ft * et)
-                released = e_in - _contact_energy(kn, dn)
-                if crossed:
-                    # threshold crossed inside the step: the work of the
-                    # released force over this step, (r + λ (1 − r)) of the
-                    # energy now (_crossing_share); the rest of the share's
-                    # work is booked at the next step
-                    r = eps0 / eps
-                    released *= r + lam * (1.0 - r)
-                spring_wf[s] += released
-                state = BROKEN
-                spring_dp[s, 0] = 0.0
-                spring_dp[s, 1] = ds
-                spring_dp[s, 2] = dt
-                if rupt == STRAIN:
-                    spring_kappa[s] = 0.0        # broken: no share pending ...
-                if crossed:
-                    # intact force at this step, minus what contact takes over below
-                    gn, gs, gt = fn, fs, ft
-                    # ... unless kept: λ and the released gap (the slip
-                    # memory holds δs, δt until the next step)
-                    spring_kappa[s] = lam
-                    spring_dp[s, 0] = dn if dn > 0.0 else 0.0
-            spring_state[s] = state
-        if state >= BROKEN:
-            lam0 = spring_kappa[s]
-            if law_params[li, P_RUPT] == STRAIN and not crossed and lam0 != 0.0 and lam0 != np.inf:
-                # the share λ k e_n kept at the breaking step n does work
-                # over this step too (trapezoidal rule, _crossing_share):
-                # ½ λ k e_n·(δ − e_n), fracture energy
-                e0 = spring_dp[s, 0]
-                e1 = spring_dp[s, 1]
-                e2 = spring_dp[s, 2]
-                spring_wf[s] += 0.5 * lam0 * (kn * e0 * (dn - e0) + ks * e1 * (ds - e1)
-                                              + kt * e2 * (dt - e2))
-                spring_kappa[s] = 0.0
-                spring_dp[s, 0] = 0.0
-            if (dn * dn + ds * ds + dt * dt > face_h[f] * face_h[f]
-                    or n2 < N2_PARTED):
-                # moved apart by a whole spring length (opened, slid or turned
-                # away), or turned by more than a right angle against each
-                # other (the mid frame is no longer the face's): the two cells
-                # have parted and no longer meet at this face (RBSM contact is
-                # between the original neighbours only)
-                spring_kappa[s] = np.inf
-            ss0 = spring_dp[s, 1]
-            st0 = spring_dp[s, 2]
-            mu = law_params[li, P_MU] if spring_kappa[s] != np.inf else CONTACT_OFF
-            fn, fs, ft, ss1, st1, closed = contact_traction(mu, kn, ks, kt, dn, ds, dt,
-                                                                ss0, st0)
-            if closed:
-                # friction work on the slip increment
-                spring_wp[s] += fs * (ss1 - ss0) + ft * (st1 - st0)
-            spring_dp[s, 1] = ss1
-            spring_dp[s, 2] = st1
-            spring_state[s] = CONTACT if closed else BROKEN
-            if crossed:
-                fn += lam * (gn - fn)
-                fs += lam * (gs - fs)
-                ft += lam * (gt - ft)
+        fn, fs, ft = spring_law(s, f, dn, ds, dt, n2 < N2_PARTED, area, kn, ks, kt, face_h,
+                                face_law, law_params, spring_state, spring_dp, spring_kappa,
+                                spring_dmg, spring_wp, spring_wf, substep)
         f0 = F00 * fn + F01 * fs + F02 * ft
         f1 = F10 * fn + F11 * fs + F12 * ft
         f2 = F20 * fn + F21 * fs + F22 * ft

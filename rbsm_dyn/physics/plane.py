@@ -23,11 +23,14 @@ one-cell slab give the same forces to round-off (tests/test_plane.py).
 import numba as nb
 import numpy as np
 
-from .integrate import DISPLACEMENT, FIXED, FREE, VELOCITY, amplitude
+from .inelastic import spring_law
+from .integrate import FIXED, FREE, VELOCITY, amplitude
 from .springs import part_range
 from ..partition import PARTS
 
 JIT = dict(cache=True, nogil=True, fastmath={"contract"}, error_model="numpy")
+# the inelastic pass as the 3D one (physics/inelastic.py): no fastmath
+IJIT = dict(cache=True, nogil=True, fastmath=False, error_model="numpy")
 
 
 @nb.njit(inline="always", **JIT)
@@ -169,6 +172,164 @@ def plane_spring_pass(psprings, ps, store, parallel):
     parts = phase_ptr[1]
     for ph in range(phase_ptr.shape[0] - 1):
         _elastic_phase(phase_ptr[ph], phase_ptr[ph + 1], parts, psprings, ps, store)
+
+
+@nb.njit(inline="always", **IJIT)
+def _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spring_slot,
+                     face_n0, face_k, spring_area, face_h, face_law, law_params, body_pos,
+                     body_cs, body_wrench, body_support, spring_state, spring_dp, spring_kappa,
+                     spring_dmg, spring_wp, spring_wf, store, spring_force, substep):
+    """The springs of group g with the inelastic law (physics/inelastic.py
+    spring_law, shared with the 3D pass): the local gap in the frame
+    (n, e_z × n, e_z) turned by the mid rotation (model/springs.py
+    plane_frames: the same components as the slab's), δt = 0."""
+    s0 = group_ptr[g]
+    s1 = group_ptr[g + 1]
+    if s1 == s0:
+        return
+    ground = body_support.shape[0] - 1
+    cur = np.uint64(spring_bodies[s0, 0])
+    w0 = w1 = w2 = 0.0
+    for s in range(np.uint64(s0), np.uint64(s1)):
+        a = np.uint64(spring_bodies[s, 0])
+        b = np.uint64(spring_bodies[s, 1])
+        ca, sa = body_cs[a, 0], body_cs[a, 1]
+        cb, sb = body_cs[b, 0], body_cs[b, 1]
+        ax, ay = spring_arm_a[s, 0], spring_arm_a[s, 1]
+        bx, by = spring_arm_b[s, 0], spring_arm_b[s, 1]
+        ua0 = ca * ax - sa * ay
+        ua1 = sa * ax + ca * ay
+        ub0 = cb * bx - sb * by
+        ub1 = sb * bx + cb * by
+        d0 = (body_pos[b, 0] - body_pos[a, 0]) + (ub0 - ua0)
+        d1 = (body_pos[b, 1] - body_pos[a, 1]) + (ub1 - ua1)
+        f = np.int64(spring_slot[s])
+        u0 = ca + cb
+        u1 = sa + sb
+        r = 1.0 / np.sqrt(u0 * u0 + u1 * u1)
+        n0x, n0y = face_n0[f, 0], face_n0[f, 1]
+        nx = (u0 * n0x - u1 * n0y) * r
+        ny = (u1 * n0x + u0 * n0y) * r
+        dn = nx * d0 + ny * d1
+        ds = nx * d1 - ny * d0                  # along τ = e_z × n = (−n_y, n_x)
+        area = spring_area[s]
+        kn = face_k[f, 0] * area
+        ks = face_k[f, 1] * area
+        # turned by more than a right angle against each other: cos(θa − θb) < 0
+        fn, fs, ft = spring_law(s, f, dn, ds, 0.0, ca * cb + sa * sb < 0.0, area, kn, ks, ks,
+                                face_h, face_law, law_params, spring_state, spring_dp,
+                                spring_kappa, spring_dmg, spring_wp, spring_wf, substep)
+        f0 = fn * nx - fs * ny
+        f1 = fn * ny + fs * nx
+        if a != cur:
+            body_wrench[cur, 0] += w0
+            body_wrench[cur, 1] += w1
+            body_wrench[cur, 2] += w2
+            cur = a
+            w0 = w1 = w2 = 0.0
+        w0 += f0
+        w1 += f1
+        w2 += (ua0 + 0.5 * d0) * f1 - (ua1 + 0.5 * d1) * f0
+        if b == ground:
+            body_support[a, 0] += f0
+            body_support[a, 1] += f1
+        else:
+            body_wrench[b, 0] -= f0
+            body_wrench[b, 1] -= f1
+            body_wrench[b, 2] -= (ub0 - 0.5 * d0) * f1 - (ub1 - 0.5 * d1) * f0
+        if store:
+            spring_force[s, 0] = f0
+            spring_force[s, 1] = f1
+    body_wrench[cur, 0] += w0
+    body_wrench[cur, 1] += w1
+    body_wrench[cur, 2] += w2
+
+
+@nb.njit(parallel=True, **IJIT)
+def _inelastic_phase(lo, hi, parts, psprings, ps, hist, store, substep):
+    """Groups lo..hi of one phase in parallel (they share no body)."""
+    group_ptr = psprings.group_ptr
+    spring_bodies = psprings.spring_bodies
+    spring_arm_a = psprings.spring_arm_a
+    spring_arm_b = psprings.spring_arm_b
+    spring_slot = psprings.spring_slot
+    face_n0 = psprings.face_n0
+    face_k = psprings.face_k
+    spring_area = psprings.spring_area
+    face_h = psprings.face_h
+    face_law = psprings.face_law
+    law_params = psprings.law_params
+    body_pos = ps.body_pos
+    body_cs = ps.body_cs
+    body_wrench = ps.body_wrench
+    body_support = ps.body_support
+    spring_force = ps.spring_force
+    spring_state = hist.spring_state
+    spring_dp = hist.spring_dp
+    spring_kappa = hist.spring_kappa
+    spring_dmg = hist.spring_dmg
+    spring_wp = hist.spring_wp
+    spring_wf = hist.spring_wf
+    for g in nb.prange(lo, hi):
+        if g < parts:
+            _clear_part(g, parts, body_wrench, body_support)
+        _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spring_slot,
+                         face_n0, face_k, spring_area, face_h, face_law, law_params, body_pos,
+                         body_cs, body_wrench, body_support, spring_state, spring_dp,
+                         spring_kappa, spring_dmg, spring_wp, spring_wf, store, spring_force,
+                         substep)
+
+
+@nb.njit(**IJIT)
+def _inelastic_serial(psprings, ps, hist, store, substep):
+    """Every group in order, one thread (small models)."""
+    group_ptr = psprings.group_ptr
+    spring_bodies = psprings.spring_bodies
+    spring_arm_a = psprings.spring_arm_a
+    spring_arm_b = psprings.spring_arm_b
+    spring_slot = psprings.spring_slot
+    face_n0 = psprings.face_n0
+    face_k = psprings.face_k
+    spring_area = psprings.spring_area
+    face_h = psprings.face_h
+    face_law = psprings.face_law
+    law_params = psprings.law_params
+    body_pos = ps.body_pos
+    body_cs = ps.body_cs
+    body_wrench = ps.body_wrench
+    body_support = ps.body_support
+    spring_force = ps.spring_force
+    spring_state = hist.spring_state
+    spring_dp = hist.spring_dp
+    spring_kappa = hist.spring_kappa
+    spring_dmg = hist.spring_dmg
+    spring_wp = hist.spring_wp
+    spring_wf = hist.spring_wf
+    phase_ptr = psprings.phase_ptr
+    parts = phase_ptr[1]
+    for g in range(0, phase_ptr[phase_ptr.shape[0] - 1]):
+        if g < parts:
+            _clear_part(g, parts, body_wrench, body_support)
+        _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spring_slot,
+                         face_n0, face_k, spring_area, face_h, face_law, law_params, body_pos,
+                         body_cs, body_wrench, body_support, spring_state, spring_dp,
+                         spring_kappa, spring_dmg, spring_wp, spring_wf, store, spring_force,
+                         substep)
+
+
+@nb.njit(**IJIT)
+def plane_inelastic_pass(psprings, ps, hist, store, substep, parallel):
+    """Plane springs with yield, rupture and contact (hist: arrays.SpringHistory,
+    updated), summed into the bodies' wrenches; `substep`: the forces of an
+    explicit step (physics/inelastic.py).  `parallel` None: one thread."""
+    if parallel is None:
+        _inelastic_serial(psprings, ps, hist, store, substep)
+        return
+    phase_ptr = psprings.phase_ptr
+    parts = phase_ptr[1]
+    for ph in range(phase_ptr.shape[0] - 1):
+        _inelastic_phase(phase_ptr[ph], phase_ptr[ph + 1], parts, psprings, ps, hist, store,
+                         substep)
 
 
 @nb.njit(inline="always", **JIT)
@@ -322,15 +483,20 @@ def plane_body_pass(t, stepping, pbodies, ploads, ps, parallel):
 
 
 @nb.njit(**JIT)
-def run_plane(n_steps, step0, stepping, pbodies, psprings, ploads, ps, parallel):
+def run_plane(n_steps, step0, stepping, pbodies, psprings, ploads, ps, hist, parallel):
     """Advance a plane model n_steps explicit steps in compiled code:
 
-        springs   forces at x_n of every spring point (plane_spring_pass)
+        springs   forces at x_n of every spring point: elastic (hist None,
+                  plane_spring_pass) or inelastic with the spring history
+                  hist (plane_inelastic_pass)
         bodies    kick v, ω with the forces at t_n, drift x, turn θ
 
     Returns the step count after them."""
     for k in range(n_steps):
         t = (step0 + k) * stepping.dt
-        plane_spring_pass(psprings, ps, False, parallel)
+        if hist is None:
+            plane_spring_pass(psprings, ps, False, parallel)
+        else:
+            plane_inelastic_pass(psprings, ps, hist, False, True, parallel)
         plane_body_pass(t, stepping, pbodies, ploads, ps, parallel)
     return step0 + n_steps

@@ -154,7 +154,7 @@ def advance(model, state, n_steps, damping_alpha=0.0, damping_local=0.0, options
         state.step = run_plane(
             n_steps, state.step, Stepping(float(state.dt), float(damping_alpha),
                                           float(damping_local)),
-            pb, psp, pl, plane_state(m, state), parallel_arg(opt))
+            pb, psp, pl, plane_state(m, state), history(state, opt), parallel_arg(opt))
         lift(m, state)
         return
     contact = contact_arrays(m, state.contact) if opt.contact else None

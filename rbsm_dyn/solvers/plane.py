@@ -9,10 +9,11 @@ projection of both:
     plane_state(model, s)  the PlaneState of a State, kept on it between chunks
     lift(model, s)         the State's slab arrays from the PlaneState
 
-Which scenes step on the plane passes (plane_ready): elastic springs, no
-Poisson correction and no contact between cells; any other plane scene
-steps on the 3D passes of its slab (the same answer, the 3D price) until
-the plane mode has those passes too.
+Which scenes step on the plane passes (plane_ready): elastic and
+inelastic springs (yield, rupture, cuts, interfaces), without contact
+between cells; a plane scene with `contact` steps on the 3D passes of its
+slab (the same answer, the 3D price) until the plane mode has a contact
+pass too.
 """
 import numpy as np
 
@@ -23,7 +24,7 @@ from ..physics.rotation import quat_matrix_np, quat_mul_np
 
 def plane_ready(model, options):
     """True when the plane passes cover the model's physics."""
-    return bool(model.plane) and not (options.inelastic or options.poisson or options.contact)
+    return bool(model.plane) and not (options.poisson or options.contact)
 
 
 def _z_column(rot):
@@ -58,7 +59,8 @@ def plane_arrays(model):
     f64 = np.ascontiguousarray
     bodies = PlaneBodies(f64(m.body_mass), f64(jz), f64(m.body_pos0[:, :2]))
     springs = PlaneSprings(m.spring_bodies, f64(arm_a), f64(arm_b), m.spring_slot,
-                           m.spring_area, f64(nrm[:, :2]), face_k, m.group_ptr, m.phase_ptr)
+                           m.spring_area, f64(nrm[:, :2]), face_k, m.face_h, m.face_law,
+                           m.law_params, m.group_ptr, m.phase_ptr)
     fext = np.concatenate([m.body_fext[:, :2], m.body_mext[:, 2:3]], axis=1)
     if len(m.body_ffol):
         # follower loads in the principal frame -> the body's rest axes
