@@ -300,8 +300,19 @@ def test_quiet_silences_the_heartbeat(tmp_path):
     assert "compiling" not in r.stderr, r.stderr
     assert r.stdout.startswith(f"{path}: ok"), r.stdout
 
+PLANE = """
+name: plane-tiny
+plane: {kind: stress, thickness: 0.01}
+domain: {box: [[0, 0], [0.1, 0.02]]}
+mesh: {kind: blocks, divisions: [10, 2]}
+materials: {steel: {density: 7800, young: 200.0e9, poisson: 0.3}}
+boundary: [{face: xmin, fix: all}]
+initial: [{velocity: [0, 1.0]}]
+solver: {mode: dynamic, end_time: 1.0e-6}
+"""
+
 CASE_OF_KIND = {
-    "dynamic": TINY, "newton": STATIC, "relaxation": STATIC.replace("method: newton, ", "method: relaxation, "),
+    "dynamic": TINY, "plane": PLANE, "newton": STATIC, "relaxation": STATIC.replace("method: newton, ", "method: relaxation, "),
     "linear": STATIC.replace("mode: static, method: newton, load_steps: 2", "mode: linear"),
     "modal": STATIC.replace("mode: static, method: newton, load_steps: 2",
                             "mode: modal, modes: 3").replace(

@@ -73,7 +73,9 @@ def _check_part(case: Case, part: ScenePart):
         if m.size is None:
             raise err(mp + ("size",), "required key missing (kind voronoi)")
         only(["divisions"], "with kind voronoi")
-        cells = volume / m.size ** 3
+        # a plane model's cells are prisms through its thickness
+        cells = volume / (m.size ** 3 if case.plane is None
+                          else m.size ** 2 * case.plane.thickness)
         if cells > MAX_CELLS:
             raise err(mp + ("size",), f"too small: {cells:.3g} cells "
                       f"(at most {MAX_CELLS:g}; check the units)")

@@ -25,7 +25,9 @@ def _info(case, model, threads, out=None):
     from ..solvers.passes import Options
     e = estimate(case, model, extra_observables=_extra_observables(case), threads=threads)
     dt = e.dt_estimate
-    print(f"case        {case.name} ({case.solver.mode})")
+    plane = (f", plane {case.plane.kind}, thickness {case.plane.thickness:g} m"
+             if case.plane is not None else "")
+    print(f"case        {case.name} ({case.solver.mode}{plane})")
     print(f"bodies      {e.n_bodies}")
     print(f"springs     {e.n_springs} ({e.n_supports} supports, {model.n_cut} cut)")
     for k, line in enumerate(_selections(case, model)):
@@ -38,7 +40,7 @@ def _info(case, model, threads, out=None):
             print(f"exact dt    {2.0 / w:.4g} s (2/ω_max, ω_max = {w:.4g} rad/s by Lanczos; "
                   f"estimate/exact = {dt * w / 2.0:.3f})")
     kind = _run_kind(case)
-    if kind in ("dynamic", "relaxation"):
+    if kind in ("dynamic", "plane", "relaxation"):
         # the passes of one step, chosen once per run (solvers/passes.py)
         opt = Options.of(model, threads=threads)
         print(f"step        {' -> '.join(opt.passes(kind))} "

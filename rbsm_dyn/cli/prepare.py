@@ -229,15 +229,18 @@ def _cell_estimate(case):
     total = 0.0
     for part in scene_parts(case):
         m, g = part.mesh, part.geometry
+        # a plane model's cells are prisms through its thickness
+        cell = (m.size ** 3 if case.plane is None else m.size ** 2 * case.plane.thickness) \
+            if m.size else 1.0
         if m.kind == "rigid":
             total += 1.0
         elif m.kind == "blocks":
             total += float(math.prod(m.divisions))
         elif g.kind() == "box":
             (x0, y0, z0), (x1, y1, z1) = g.box
-            total += (x1 - x0) * (y1 - y0) * (z1 - z0) / m.size ** 3
+            total += (x1 - x0) * (y1 - y0) * (z1 - z0) / cell
         else:
-            total += (g._solid.volume if g._solid is not None else 0.0) / m.size ** 3
+            total += (g._solid.volume if g._solid is not None else 0.0) / cell
     return total
 
 

@@ -138,7 +138,7 @@ def _run(case, model, args, threads, lock, notice=None):
     notice.progress = progress
     # (the heartbeat of a warm-looking run: only where the first chunk is
     # short, not a Newton increment or a linear or modal solve)
-    notice.arm(heartbeat=_run_kind(case) in ("dynamic", "relaxation"))
+    notice.arm(heartbeat=_run_kind(case) in ("dynamic", "plane", "relaxation"))
     t0 = time.perf_counter()
     try:
         if case.solver.mode == "dynamic":

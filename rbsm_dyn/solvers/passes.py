@@ -47,7 +47,14 @@ class Options:
                    parallel=model.n_springs >= SERIAL_SPRINGS)
 
     def passes(self, body="dynamic"):
-        """The step's passes in order, by name (for `info` and the docs)."""
+        """The step's passes in order, by name (for `info` and the docs);
+        body "plane": a plane model's step (physics/plane.py), on the 3D
+        passes of its slab when it has contact or the Poisson correction."""
+        if body == "plane":
+            if not (self.contact or self.poisson):
+                return ["springs:plane-" + ("inelastic" if self.inelastic else "elastic"),
+                        "bodies:plane"]
+            body = "dynamic"
         out = ["springs:" + ("inelastic" if self.inelastic else "elastic")]
         if self.poisson:
             out.append("aux_stress")
