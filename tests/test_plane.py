@@ -290,3 +290,23 @@ def test_plane_inelastic_pass_is_the_slab_pass(monkeypatch):
     scale = np.abs(b.body_pos - model.body_pos0).max()
     assert np.abs(a.body_pos - b.body_pos).max() <= 1e-9 * scale
     assert a.spring_wf.sum() == pytest.approx(b.spring_wf.sum(), rel=1e-9)
+
+
+@pytest.mark.parametrize("item", ["boundary: [{face: zmin, fix: all}]",
+                                  "loads: [{surface: zmax, pressure: 1.0e6}]"])
+def test_the_faces_of_the_plane_take_no_support_or_load(item):
+    """zmin, zmax of a plane case are the faces of the plane, not edges:
+    a support or a surface load on them is refused, naming the item."""
+    case = load_case_text(f"""
+name: p
+plane: {{kind: stress, thickness: 0.1}}
+domain: {{box: [[0, 0], [1, 1]]}}
+mesh: {{kind: blocks, divisions: [2, 2]}}
+materials: {{m: {{density: 1000, young: 1.0e9, poisson: 0.0}}}}
+{item}
+solver: {{mode: dynamic, end_time: 1e-3}}
+""")
+    with pytest.raises(CaseError) as err:
+        build_model(case)
+    assert "face of the plane" in err.value.message
+    assert err.value.path.startswith(item.split(":")[0])

@@ -54,6 +54,9 @@ def surface_load(case, mesh, item, path):
     if len(faces) == 0:
         raise case.error(path + ("surface",), f"surface {item.surface!r} has no boundary "
                          "face in the mesh")
+    if case.plane is not None and np.max(np.abs(mesh.bface_normal[faces, 2])) > 1e-9:
+        raise case.error(path + ("surface",), f"surface {item.surface} is a face of the plane "
+                         "(the slab's top or bottom): a plane case loads its edges only")
     cells = mesh.bface_cell[faces]
     area = mesh.bface_area[faces][:, None]
     if item.pressure is not None:
