@@ -2,6 +2,7 @@
 (rbsm_dyn/fracture_calibration.py; method in docs/calibration.md, "Fracture").
 
     python benchmarks/calibrate_fracture.py [--betas 1 2 3 10] [--seeds 1 2] [--cells-across 8]
+    python benchmarks/calibrate_fracture.py --plane ...   (plane Voronoi, plane stress)
 
 For each spring brittleness β_s = E G_s/(f_s² Δ) and seed, two specimens (double-edge notched)
 with the spring values as given (`rupture.values: spring`):
@@ -38,14 +39,15 @@ def run(text, tmp):
     return rbsm_dyn.open_history(out)
 
 
-def measure(beta, seed, notch, cells_across, tmp):
+def measure(beta, seed, notch, cells_across, tmp, plane=False):
     text, area, gf = tension_specimen(cell=0.002, cells_across=cells_across, notch=notch,
                                       tensile_strength=FT, beta=beta, values="spring",
-                                      seed=seed)
+                                      seed=seed, plane=plane)
     t = time.time()
     h = run(text, tmp)
     ob = h.observables
-    W2 = (cells_across * 0.002) ** 2
+    # the section the peak load divides: W² (3D prism), W × t (plane, t = cell)
+    W2 = (cells_across * 0.002) * (0.002 if plane else cells_across * 0.002)
     bal = ob["kinetic"] + ob["strain"] + ob["plastic"] + ob["fracture"] + ob["damping"] \
         - ob["external_work"]
     return dict(peak=np.abs(ob["F"]).max() / W2 / FT, wf=ob["fracture"][-1] / (area * gf),
@@ -57,6 +59,8 @@ def main_(argv=None):
     p.add_argument("--betas", type=float, nargs="+", default=[1, 2, 3, 10])
     p.add_argument("--seeds", type=int, nargs="+", default=[1, 2])
     p.add_argument("--cells-across", type=int, default=8)
+    p.add_argument("--plane", action="store_true",
+                   help="the plane-stress specimens (plane Voronoi: PLANE_VORONOI_FRACTURE)")
     p.add_argument("--notched-only", action="store_true",
                    help="measure F_G only (F_T scatters by ±1 %%: two seeds suffice)")
     a = p.parse_args(argv)
@@ -66,8 +70,8 @@ def main_(argv=None):
             ft, fg = [], []
             for seed in a.seeds:
                 d = (dict(peak=np.nan, balance=np.nan, wall=0.0) if a.notched_only
-                     else measure(beta, seed, 0.0, a.cells_across, tmp))
-                n = measure(beta, seed, 0.5, a.cells_across, tmp)
+                     else measure(beta, seed, 0.0, a.cells_across, tmp, a.plane))
+                n = measure(beta, seed, 0.5, a.cells_across, tmp, a.plane)
                 ft.append(d["peak"])
                 fg.append(n["wf"])
                 print(f"beta_s {beta:5.2f} seed {seed}: F_T {d['peak']:.3f} (balance "

@@ -48,14 +48,16 @@ def brittleness(young, fracture_energy, tensile_strength, cell_size):
 def fracture_ratios(mesh_kind, young, fracture_energy, tensile_strength, cell_size):
     """(F_T, F_G) of a mesh kind for a material (E, G_f, f_t) cut into cells
     of `cell_size`: interpolated at its brittleness β (in log β) in the
-    measured table, held constant beyond its ends.  Blocks: (1, 1): a crack
-    along a plane of block faces has no tortuosity and a uniaxial stress
-    along an axis loads the faces normal to it uniformly (Griffith test in
-    tests/test_fracture.py)."""
-    if mesh_kind != "voronoi":
+    measured table, held constant beyond its ends.  Blocks (and plane
+    blocks): (1, 1): a crack along a plane of block faces has no tortuosity
+    and a uniaxial stress along an axis loads the faces normal to it
+    uniformly (Griffith test in tests/test_fracture.py).  `plane_voronoi`:
+    the plane Voronoi lattice's own table (PLANE_VORONOI_FRACTURE)."""
+    if mesh_kind not in ("voronoi", "plane_voronoi"):
         return 1.0, 1.0
     beta = brittleness(young, fracture_energy, tensile_strength, cell_size)
-    table = VORONOI_FRACTURE[np.argsort(VORONOI_FRACTURE[:, 0])]
+    data = VORONOI_FRACTURE if mesh_kind == "voronoi" else PLANE_VORONOI_FRACTURE
+    table = data[np.argsort(data[:, 0])]
     x = np.log(beta)
     lb = np.log(table[:, 0])
     return float(np.interp(x, lb, table[:, 1])), float(np.interp(x, lb, table[:, 2]))
@@ -63,7 +65,7 @@ def fracture_ratios(mesh_kind, young, fracture_energy, tensile_strength, cell_si
 
 def tension_specimen(*, cell, cells_across=8, notch=0.5, young=30.0e9, density=2400.0,
                      poisson=0.0, tensile_strength=3.0e6, fracture_energy=None, beta=None,
-                     values="material", seed=1, rate=0.25, extra=""):
+                     values="material", seed=1, rate=0.25, extra="", plane=False):
     """YAML text of the calibration specimens (docs/calibration.md,
     "Fracture"): a Voronoi prism W × W × 2W (W = cells_across × cell) on a
     support on zmin holding z, pulled along z at its top cell layer at a
@@ -74,9 +76,14 @@ def tension_specimen(*, cell, cells_across=8, notch=0.5, young=30.0e9, density=2
     so that the specimen is loaded quasi-statically; the run ends after the
     opening 2 G_f/f_t of a face has been applied twice over.  Probes: F (z
     reaction on the support, negative in tension) and u (top displacement).
+    `plane`: the plane-stress specimen W × 2W of thickness `cell` (a
+    plane model, pulled along y), the same notches as edge cuts.
     Returns (text, ligament area [m²], G_f)."""
     if fracture_energy is None:
         fracture_energy = beta * cell * tensile_strength ** 2 / young
+    if plane:
+        return _plane_specimen(cell, cells_across, notch, young, density, poisson,
+                               tensile_strength, fracture_energy, values, seed, rate, extra)
     W = cells_across * cell
     L = 2 * W
     c0 = (young / density) ** 0.5
@@ -118,3 +125,49 @@ output:
     u: {{group: top, quantity: displacement, component: z, reduce: mean}}
 """
     return text, W * W * (1 - notch), fracture_energy
+
+
+def _plane_specimen(cell, cells_across, notch, young, density, poisson, tensile_strength,
+                    fracture_energy, values, seed, rate, extra):
+    """tension_specimen's plane-stress twin (see there), pulled by the cells
+    on its top edge (all of them: a group of the cells whose centroids lie
+    near the edge leaves some edge cells behind, and the plane lattice then
+    breaks beside them, at 0.6-1.1 f_t from mesh to mesh)."""
+    W = cells_across * cell
+    L = 2 * W
+    c0 = (young / density) ** 0.5
+    v = rate * tensile_strength / (density * c0)
+    ramp = 10 * L / c0
+    t_end = max(2.0 * (2 * fracture_energy / tensile_strength
+                       + L * tensile_strength / young) / v, 3 * ramp)
+    cut = ""
+    if notch > 0:
+        y0, y1, d = L / 2 - cell, L / 2 + cell, notch * W / 2
+        cut = (f"cuts: [{{point: [0, {L / 2!r}], normal: [0, 1], within: [[-1, {y0!r}], "
+               f"[{d!r}, {y1!r}]]}},\n"
+               f"       {{point: [0, {L / 2!r}], normal: [0, 1], within: [[{W - d!r}, "
+               f"{y0!r}], [1, {y1!r}]]}}]")
+    text = f"""\
+name: tension-specimen-plane
+plane: {{kind: stress, thickness: {cell!r}}}
+domain: {{box: [[0, 0], [{W!r}, {L!r}]]}}
+mesh: {{kind: voronoi, size: {cell!r}, seed: {seed}}}
+materials:
+  m: {{density: {density!r}, young: {young!r}, poisson: {poisson!r},
+      rupture: {{fracture_energy: {fracture_energy!r}, tensile_strength: {tensile_strength!r},
+                values: {values}{extra}}}}}
+groups:
+  bottom: {{box: [[-1, -1], [1, {1.5 * cell!r}]]}}
+boundary:
+  - {{face: ymin, fix: [y]}}
+  - {{surface: ymax, velocity: [0, {v!r}], history: [[0, 0], [{ramp!r}, 1], [{t_end!r}, 1]]}}
+{cut}
+solver: {{mode: dynamic, end_time: {t_end!r}}}
+output:
+  interval: {t_end / 150!r}
+  fields: [position]
+  probes:
+    F: {{group: bottom, quantity: reaction, component: y, reduce: sum}}
+    u: {{surface: ymax, quantity: displacement, component: y, reduce: mean}}
+"""
+    return text, W * cell * (1 - notch), fracture_energy

@@ -227,7 +227,11 @@ def _free_rigid_motion(model, K, pres):
     """True if some rigid mode vanishes on the constrained DOFs `pres` and
     is also (to round-off) in the null space of K (no support holds it)."""
     phi = rigid_modes(model)
-    _, sv, vt = np.linalg.svd(phi[pres], full_matrices=True)
+    held = phi[pres]
+    # vt (6, 6) of the held rows: the full U (rows × rows) is never needed
+    # (a plane model holds 3 DOFs of every body: full_matrices took 43 s
+    # and 2.9 GB for 6 300 cells); only fewer than 6 rows need the full vt
+    _, sv, vt = np.linalg.svd(held, full_matrices=held.shape[0] < 6)
     rank = int(np.sum(sv > 1e-10 * max(1.0, sv.max(initial=0.0))))
     combos = vt[rank:].T                               # (6, 6 - rank)
     if combos.shape[1] == 0:

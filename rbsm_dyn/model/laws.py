@@ -164,7 +164,8 @@ def _slot_laws(case, parts, slots, law_rows):
         slot_e0.append(e0)
         slot_alpha.append(alpha)
         slot_lam.append(lam_aux)
-        law_rows.append(material_law_row(mat, kind, part_cell_size(case, ref)))
+        law_rows.append(material_law_row(mat, kind if case.plane is None else "plane_" + kind,
+                                         part_cell_size(case, ref)))
     for j, name in enumerate(mat_names):
         if materials[j] is None:        # a material no body uses
             mat = case.materials[name]
@@ -184,8 +185,8 @@ def _interface_laws(case, parts, law_rows):
         elif it.material is not None:
             ref = next(p for p in parts if p.name in it.parts and p.mesh.kind != "rigid")
             from ..case import part_cell_size
-            row = material_law_row(case.materials[it.material], ref.mesh.kind,
-                                   part_cell_size(case, ref))
+            kind = ref.mesh.kind if case.plane is None else "plane_" + ref.mesh.kind
+            row = material_law_row(case.materials[it.material], kind, part_cell_size(case, ref))
         else:
             row = None                   # the weaker of the two cells' laws
         iface_row.append(-1 if row is None else len(law_rows))

@@ -54,6 +54,9 @@ __all__ = ["LinearSolution", "solve", "run", "rotation_quat", "block_jacobi",
            "factorize", "DIRECT_MAX_DOFS", "CG_RTOL"]
 
 DIRECT_MAX_DOFS = 12_000    # free DOFs up to which SuperLU is used (bench_linear.py)
+DIRECT_MAX_DOFS_PLANE = 300_000   # ... in a plane model (Kirsch plate, 18 909 DOFs: SuperLU
+                                  # 1.0 s, block-Jacobi CG 988 iterations 30 s, beside a
+                                  # busy process)
 CG_RTOL = 1e-10             # relative residual of the CG solve
 REFINE = 2                  # steps of iterative refinement after the direct solve
 
@@ -143,7 +146,10 @@ def solve(model, *, K=None, load=None, method="auto", rtol=CG_RTOL, maxiter=None
     b = F[free] - Kf[:, pres] @ U[pres]
     nf = Kff.shape[0]
     if method == "auto":
-        method = "direct" if nf <= DIRECT_MAX_DOFS else "cg"
+        # a plane model's matrix factors with the fill-in of a 2D mesh
+        # (nested dissection: O(n log n) entries): direct far beyond the 3D limit
+        limit = DIRECT_MAX_DOFS_PLANE if getattr(model, "plane", "") else DIRECT_MAX_DOFS
+        method = "direct" if nf <= limit else "cg"
     t1 = _time.perf_counter()
     iterations = 0
     if nf:
