@@ -40,6 +40,21 @@ VORONOI_FRACTURE = np.array([
 ])
 
 
+# Plane Voronoi (mesh/voronoi_plane.py, min_spacing 0.5, moment spring
+# points), the same law and measure on plane-stress specimens 16 cells wide
+# (tension_specimen(plane=True), pulled by the whole top edge): measured by
+# benchmarks/calibrate_fracture.py --plane on 2026-11-26 (F_T: seeds 1-16,
+# ±0.014-0.017 one specimen; F_G: seeds 1-16, ±0.23-0.31 one specimen, the
+# mean ±0.06-0.08; docs/calibration.md, "Fracture")
+PLANE_VORONOI_FRACTURE = np.array([
+    # beta, F_T, F_G
+    [1.72, 0.940, 1.522],
+    [2.99, 0.992, 1.472],
+    [3.98, 1.019, 1.379],
+    [11.7, 1.083, 1.377],
+])
+
+
 def brittleness(young, fracture_energy, tensile_strength, cell_size):
     """β = l_ch/Δ, l_ch = E G_f/f_t² (Hillerborg, Modéer & Petersson 1976)."""
     return young * fracture_energy / (tensile_strength ** 2 * cell_size)
