@@ -382,3 +382,21 @@ def test_l_panel_peak_load_against_the_experiment(run_case):
     first = next(k for k in range(len(states)) if np.any(states[k] >= 2))
     p = model.spring_point[states[first] >= 2]
     assert np.all(np.hypot(p[:, 0] - 0.25, p[:, 1] - 0.25) < 0.03)
+
+
+def test_plane_history_says_its_dimension(run_case):
+    """A plane run's history has the root attributes dimension = 2 and its
+    kind (docs/history.md); positions keep z = 0 (to the round-off of the
+    prisms' centroids)."""
+    h = run_case("""
+        name: p
+        plane: {kind: stress, thickness: 0.01}
+        domain: {box: [[0, 0], [0.1, 0.02]]}
+        mesh: {kind: blocks, divisions: [10, 2]}
+        materials: {steel: {density: 7800, young: 200.0e9, poisson: 0.3}}
+        boundary: [{face: xmin, fix: all}]
+        initial: [{velocity: [0, 1.0]}]
+        solver: {mode: dynamic, end_time: 1.0e-5}
+        """)
+    assert h.dimension == 2 and h.plane == "stress"
+    assert np.abs(np.asarray(h.position)[..., 2]).max() < 1e-15

@@ -97,6 +97,8 @@ class History:
         self.units: dict[str, str] = {}
         self.parameters: dict[str, str] = {}
         self.status: str | None = None
+        self.dimension = 3          # 2: a plane model (root attribute dimension)
+        self.plane = ""             # "strain" | "stress" for a plane model
         self.h5md_version: tuple[int, ...] | None = None
         self.creator = self.creator_version = self.author = None
         self.observables: dict[str, np.ndarray] = {}
@@ -449,6 +451,9 @@ def _read_into(h: "History", f: h5py.File, frames) -> None:
     """open_history's reading of the open file ``f`` into ``h``."""
     frames_attr = f.attrs.get("frames")
     h.status = _attr_str(f, "status")
+    # a plane model's history: dimension 2 (files before issue 27: 3)
+    h.dimension = int(f.attrs.get("dimension", 3))
+    h.plane = _attr_str(f, "plane") or ""
     if "h5md" in f:
         g = f["h5md"]
         if "version" in g.attrs:

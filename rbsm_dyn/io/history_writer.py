@@ -375,6 +375,12 @@ class HistoryWriter:
         self.buffer_seconds = 0.0
         self.buffer_bytes = 64 << 20
 
+    def set_root_attr(self, name: str, value) -> None:
+        """A root attribute of the file (before :meth:`start`): e.g.
+        ``dimension`` (docs/history.md)."""
+        self._check_can_create(f"set the root attribute {name}")
+        self._f.attrs[name] = value
+
     def set_buffering(self, frames: int = 1, seconds: float = 0.0,
                       nbytes: int = 64 << 20) -> None:
         """Hold appended frames in memory and write them together (one resize

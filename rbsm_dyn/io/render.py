@@ -25,7 +25,8 @@ state >= 2 in frame 0) black, yielded faces orange.  Every picture has an
 axes triad (lower left) and a length scale bar under the cells (of the
 undeformed lengths; a round 1, 2 or 5 × 10^n m).  ``--view`` says where
 the camera looks from: ``iso`` (from +x, −y, +z), an axis side (``+z``
-above, ``-z`` below ...), or ``auto`` (the default): isometric for a
+above, ``-z`` below ...), or ``auto`` (the default): a plane model in its
+plane (from +z), isometric for a
 solid scene, and for one at most 1.5 cells thick along its thinnest side
 (a plane model) along that side (y on a tie: the side along which the
 cells moved least, so that a mode bending sideways is seen across), z up.  A modal history's picture names
@@ -409,6 +410,8 @@ def build_plotter(path, *, frame: int = -1, scale: float | None = None,
             + (f"; colour: {label}" if color != "displacement" else "") + "\n" + legend)
     pl.add_text(text, position="upper_left", font_size=11, color="black")
     cell_size = (float(np.prod(np.maximum(box_max - box_min, 0.0))) / max(h.n_bodies, 1)) ** (1 / 3)
+    if view == "auto" and getattr(h, "dimension", 3) == 2:
+        view = "+z"                  # a plane model: seen in its plane
     direction, up = _view(box_min, box_max, true_cells.point_data["displacement"], view,
                           cell_size)
     centre = 0.5 * (box_min + box_max)

@@ -297,6 +297,10 @@ class Recorder:
     def _setup(self, case, model, w, extra_observables):
         w.set_buffering(**frame_buffer(case))
         m, mesh = model, model.mesh
+        # 2: a plane model (its cells move in x-y; positions keep z = 0);
+        # the H5MD box stays 3D (docs/history.md)
+        w.set_root_attr("dimension", np.int32(2 if m.plane else 3))
+        w.set_root_attr("plane", str(m.plane))
         w.write_static("particles/bodies/mass", m.body_mass, "kg")
         w.write_static("particles/bodies/inertia", m.body_inertia, "kg m2")
         w.write_static("particles/bodies/volume", m.body_volume, "m3")
