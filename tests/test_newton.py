@@ -344,7 +344,7 @@ def test_friction_tangent_is_the_jacobian_of_the_contact_traction(slip):
     _local_tangents((np.array([[kn, ks, kt]]), np.ones(1), np.full(1, 0.01),
                      np.zeros(1, np.int64), law),
                     (np.full(1, BROKEN, np.int8), np.zeros(1)),
-                    (np.zeros(1), np.zeros(1), slip0), gap, 1e-6, True, out)
+                    (np.zeros(1), np.zeros(1), slip0), gap, gap, 1e-6, 0.0, True, out)
 
     def traction(g):
         sn, ts, tt, *_ = contact_traction(mu, kn, ks, kt, g[0], g[1], g[2],

@@ -15,7 +15,8 @@ consistent tangent while its damage grows), the consistent tangent of the
 return mapping for a yielding one (perfect plasticity: a zero modulus,
 floored at OPEN_FRACTION), a closed
 or touching contact at full stiffness (its tangential springs too when it
-has friction), an open crack at 10⁻⁶ of it (Rots & Invernizzi
+has friction; the contact faces' active set of an increment's first step
+settled by a primal-dual active set, _increment), an open crack at 10⁻⁶ of it (Rots & Invernizzi
 2004's secant "sequentially linear" stiffness is always positive, so the
 solve never meets a negative pivot on a softening branch; the rate of
 convergence is linear there, quadratic on elastic parts).  Linear
@@ -75,8 +76,10 @@ from .passes import Options, aux_stress, body_state, history, model_arrays, para
 from .statics import apply_increment, record_frame
 
 NEWTON_MAX_IT = 40      # iterations per increment before it is cut
+ACTIVE_MAX = 6          # linear solves of an increment's first iteration that settle the contact set
 MAX_CUTS = 12           # halvings of one increment
 EASY_IT = 5             # an increment converged in this many lets the next grow
+SLIP_FLOOR = 1e-2       # a slipping face's tangent along the slip / its secant (regularisation)
 OPEN_FRACTION = 1e-6    # secant stiffness of an open crack / the intact spring's
 LINE_SEARCH = (0.5, 4.0)   # bounds of the line-search step
 GEOMETRIC_ANGLE = 1e-2    # rotation [rad] beyond which the geometric stiffness is added
@@ -156,6 +159,7 @@ class Newton:
     # -- linear solves -----------------------------------------------------
     lu = None
     use_tangent = True
+    active = None           # the gaps (S, 3) the contact faces' tangents are taken at, None: the present
     symmetric = True
     cg_iterations = 0
     factorizations = 0
@@ -209,10 +213,11 @@ class Newton:
         if sstate is not None:
             gap = np.empty((m.n_springs, 3))
             spring_local_gap(model_arrays(m)[1], body_state(state), gap)
+            cgap = gap if self.active is None else self.active
             self.tangent = bool(_local_tangents(
                 (m.spring_k, m.spring_area, m.spring_h, m.spring_law, m.law_params),
                 (sstate, dmg), (state.spring_dmg, state.spring_kappa, state.spring_dp), gap,
-                OPEN_FRACTION, self.use_tangent, k))
+                cgap, OPEN_FRACTION, SLIP_FLOOR, self.use_tangent, k))
         else:
             k[:, [0, 1, 2], [0, 1, 2]] = m.spring_k
         n = self.n
@@ -440,17 +445,21 @@ class _LowRank:
 
 
 @nb.njit(cache=True)
-def _local_tangents(laws, trial, committed, gap, open_fraction, tangent, out):
+def _local_tangents(laws, trial, committed, gap, cgap, open_fraction, slip_floor, tangent, out):
     """Local stiffness (3 × 3, [N/m]) of every spring at its trial state
     (rupture.py's laws): intact: diag(kn, ks, kt) times (1 − D) (a closed
     face's normal spring whole); a spring whose damage grows in this
     increment (D > the committed D0) gets the consistent tangent
     ∂f/∂e = (1 − D) K − K e ⊗ ∂D/∂e (∂D/∂e by central differences of the
     damage function; not symmetric); broken: contact at full normal
-    stiffness when the faces overlap or touch (δn ≤ 0: a face at zero gap,
-    an interface at the start, opens in the next iteration if pulled), its friction at the
-    elastic stiffness while it sticks and at the consistent tangent of
-    the Coulomb return while it slips; else `open_fraction` of it.  `tangent` False: the secant (1 − D) K for all.
+    stiffness when the faces overlap or touch at the gaps `cgap` (the
+    present gaps `gap`, or the active set _increment settles: δn ≤ 0), its
+    friction at the elastic stiffness while it sticks and at the
+    consistent tangent of the Coulomb return while it slips, along the slip
+    regularised to `slip_floor` of the return's secant (the consistent
+    tangent has none there: a body held by slipping faces only, a roller
+    free along x, made the matrix singular); else `open_fraction` of it.
+    `tangent` False: the secant (1 − D) K for all.
     Returns True when some spring got a tangent.  laws: (spring_k,
     spring_area, spring_h, spring_law, law_params) per spring point; trial:
     (state, dmg) the trial history; committed: (dmg0, kappa0, dp)."""
@@ -466,22 +475,24 @@ def _local_tangents(laws, trial, committed, gap, open_fraction, tangent, out):
             f = open_fraction
             mu = P[P_MU] if kappa0[s] != np.inf else -1.0     # parted: no contact
             # touching counts as closed (the active set of a semi-smooth
-            # Newton: a face at zero gap -- an interface of `law: contact`
-            # under load, a cut at the start -- takes its normal stiffness,
-            # and one in tension opens at the next iteration, the residual
-            # being exact)
-            if gap[s, 0] <= 1e-12 * spring_h[s] and mu >= 0.0:
+            # Newton: a face at zero gap takes its normal stiffness, and one
+            # in tension opens at the next iteration, the residual being
+            # exact; at an increment's first step _increment decides the
+            # touching faces by their predicted gaps, cgap)
+            if cgap[s, 0] <= 1e-12 * spring_h[s] and mu >= 0.0:
                 out[s, 0, 0] = kn
                 # Coulomb friction (laws/contact.py) from the committed slip:
                 # stick, the elastic springs; slip, the consistent tangent of
                 # the radial return τ = μ|σn| m, m = τ*/|τ*| (Wriggers,
                 # Computational Contact Mechanics, 2006, §6.4 / Simo & Taylor
                 # 1985): ∂τ/∂δτ = (μ|σn|/|τ*|)(K − m mᵀ K), ∂τ/∂δn = −μ kn m,
-                # not symmetric; floored at `open_fraction` of K
-                ts = ks * (gap[s, 1] - dp[s, 1])
-                tt = kt * (gap[s, 2] - dp[s, 2])
+                # not symmetric; along m `slip_floor` of the secant
+                # μ|σn|/|τ*| K (so (K − (1 − slip_floor) m mᵀ K)), floored
+                # at `open_fraction` of K
+                ts = ks * (cgap[s, 1] - dp[s, 1])
+                tt = kt * (cgap[s, 2] - dp[s, 2])
                 t = math.sqrt(ts * ts + tt * tt)
-                tmax = -mu * kn * gap[s, 0]
+                tmax = -mu * kn * cgap[s, 0]
                 if mu > 0.0 and tmax > 0.0 and t <= tmax:
                     out[s, 1, 1] = ks
                     out[s, 2, 2] = kt
@@ -491,10 +502,11 @@ def _local_tangents(laws, trial, committed, gap, open_fraction, tangent, out):
                     r = tmax / t
                     ms = ts / t
                     mt = tt / t
-                    out[s, 1, 1] = max(r * ks * (1.0 - ms * ms), f * ks)
-                    out[s, 1, 2] = -r * ms * mt * kt
-                    out[s, 2, 1] = -r * mt * ms * ks
-                    out[s, 2, 2] = max(r * kt * (1.0 - mt * mt), f * kt)
+                    c = 1.0 - slip_floor
+                    out[s, 1, 1] = max(r * ks * (1.0 - c * ms * ms), f * ks)
+                    out[s, 1, 2] = -r * c * ms * mt * kt
+                    out[s, 2, 1] = -r * c * mt * ms * ks
+                    out[s, 2, 2] = max(r * kt * (1.0 - c * mt * mt), f * kt)
                     out[s, 1, 0] = -mu * kn * ms
                     out[s, 2, 0] = -mu * kn * mt
                     any_soft = True
@@ -809,33 +821,65 @@ def _increment(nt, state, lam, goal, plan, tol, controlled):
             return True, lam, k - 1, ratio
         if not np.isfinite(ratio):
             return False, lam, k, ratio
-        lin = nt.linear(state, tri)
         lam0 = lam
         free = nt.free
-        dU = np.zeros(6 * nt.n)
-        if controlled:
-            # K δU_F = F − K_fp U_p: the response to a unit rise of λ
-            B = np.column_stack([r[free], nt.F[free] - lin.prescribed()])
-        else:
-            B = r[free][:, None]
-        X = lin.solve(B)
-        if X is None or not np.all(np.isfinite(X)):
-            return False, lam, k, ratio
-        dU[free] = X[:, 0]
-        if controlled:
-            dF = np.zeros(6 * nt.n)
-            dF[free] = X[:, 1]
-            dF[nt.disp] = nt.Up[nt.disp]
-            den = float(c @ dF)
-            if abs(den) < 1e-300:
+        # the contact faces' active set of an increment's first step (a
+        # primal-dual active set, Hintermüller, Ito & Kunisch 2002, "The
+        # primal-dual active set strategy as a semismooth Newton method",
+        # SIAM J. Optim. 13, on the linearised problem): the step of the
+        # present set (a face closed when it overlaps or touches) moves every
+        # contact face to a predicted normal gap; a face predicted to close
+        # is closed (and sticks if its friction holds its present tangential
+        # gap), one predicted to open is open, and the step is solved again
+        # until the set repeats (ACTIVE_MAX solves at most).  A face touching
+        # at zero gap -- a cut or an interface at the start -- is so decided
+        # by the sign of its predicted normal force (tension: the intact
+        # spring's answer opens it), not by its gap, which says nothing: the
+        # notch of three-point bending, shut to the tangent, put λ 10 times
+        # too high at the first step.  Later steps take the set of the
+        # present gaps (the semi-smooth Newton iteration itself; a set
+        # settled in every step cycled between two sets on the rocking
+        # supports of three-point bending)
+        nt.active = None
+        contact = None
+        for inner in range(ACTIVE_MAX):
+            lin = nt.linear(state, tri)
+            out = _direction(nt, lin, r, controlled)
+            if out is None:
+                nt.active = None
                 return False, lam, k, ratio
-            dU_r = dU.copy()
-            cr = float(c @ dU_r)
-
+            dU_r, dF = out
+            if controlled:
+                den = float(c @ dF)
+                if abs(den) < 1e-300:
+                    nt.active = None
+                    return False, lam, k, ratio
+                cr = float(c @ dU_r)
+            if k > 1:
+                break
+            if contact is None:
+                contact = _contact_faces(nt, state, tri)
+                if contact.size == 0:
+                    break
+                now = np.empty((m.n_springs, 3))
+                spring_local_gap(model_arrays(m)[1], body_state(state), now)
+                closed = _contact_status(nt, state, now, contact) > 0
+            dU, dlam = _combine(dU_r, dF, gap, cr, den, 1.0) if controlled else (dU_r, 0.0)
+            if not np.all(np.isfinite(dU)):
+                break
+            cg = now.copy()
+            cg[:, 0] = _predicted_gap(nt, state, dU, lam + dlam, lam)[:, 0]
+            new = _contact_status(nt, state, cg, contact) > 0
+            if np.array_equal(new, closed):
+                break
+            closed = new
+            nt.active = cg
+        nt.active = None
+        dU = dU_r
+        if controlled:
             def step(alpha):
                 """α δU_r + δλ(α) δU_F, δλ keeping the linearised constraint."""
-                dl = (gap - alpha * cr) / den
-                return alpha * dU_r + dl * dF, dl
+                return _combine(dU_r, dF, gap, cr, den, alpha)
             dU, dlam = step(1.0)
             if not np.all(np.isfinite(dU)):
                 return False, lam, k, ratio
@@ -867,10 +911,87 @@ def _increment(nt, state, lam, goal, plan, tol, controlled):
             lam += dlam
         if not np.all(np.isfinite(dU)):
             return False, lam, k, ratio
-        if nt.tangent:
+        if nt.tangent and nt.use_tangent:
+            # (only a step of the damage tangent is undone: friction's and
+            # plasticity's tangents stay, and undoing their step would
+            # repeat it)
             back = (_save_motion(state), lam0, ratio)
         apply_increment(m, state, dU.reshape(nt.n, 6))
     return False, lam, NEWTON_MAX_IT, ratio
+
+
+def _direction(nt, lin, r, controlled):
+    """(δU_r, δU_F) of the iteration's linear solver: K δU_r = r, and under
+    indirect control K δU_F = F − K_fp U_p (the response to a unit rise of
+    λ, the prescribed DOFs at full amplitude; None without control); None
+    when the solve fails."""
+    free = nt.free
+    if controlled:
+        B = np.column_stack([r[free], nt.F[free] - lin.prescribed()])
+    else:
+        B = r[free][:, None]
+    X = lin.solve(B)
+    if X is None or not np.all(np.isfinite(X)):
+        return None
+    dU = np.zeros(6 * nt.n)
+    dU[free] = X[:, 0]
+    dF = None
+    if controlled:
+        dF = np.zeros(6 * nt.n)
+        dF[free] = X[:, 1]
+        dF[nt.disp] = nt.Up[nt.disp]
+    return dU, dF
+
+
+def _combine(dU_r, dF, gap, cr, den, alpha):
+    """α δU_r + δλ δU_F with δλ = (gap − α c·δU_r)/(c·δU_F): the step that
+    keeps the linearised constraint; (step, δλ)."""
+    dl = (gap - alpha * cr) / den
+    return alpha * dU_r + dl * dF, dl
+
+
+def _contact_faces(nt, state, tri):
+    """Indices of the broken springs that can touch (their trial state
+    broken, not parted, a law with contact)."""
+    m = nt.m
+    sstate = tri[0]
+    if sstate is None:
+        return np.zeros(0, dtype=np.int64)
+    mu = m.law_params[m.spring_law, P_MU]
+    return np.flatnonzero((sstate >= BROKEN) & (mu >= 0.0) & (state.spring_kappa != np.inf))
+
+
+def _contact_status(nt, state, cgap, faces):
+    """Status of the contact faces `faces` at the gaps cgap (S, 3; None:
+    the present gaps), as _local_tangents reads it: 0 open, 1 closed and
+    slipping (or touching, with no friction to hold), 2 closed and sticking."""
+    m = nt.m
+    if cgap is None:
+        cgap = np.empty((m.n_springs, 3))
+        spring_local_gap(model_arrays(m)[1], body_state(state), cgap)
+    g = cgap[faces]
+    k = m.spring_k[faces]
+    dp = state.spring_dp[faces]
+    mu = m.law_params[m.spring_law[faces], P_MU]
+    closed = g[:, 0] <= 1e-12 * m.spring_h[faces]
+    t = np.hypot(k[:, 1] * (g[:, 1] - dp[:, 1]), k[:, 2] * (g[:, 2] - dp[:, 2]))
+    tmax = -mu * k[:, 0] * g[:, 0]
+    stick = closed & (mu > 0.0) & (tmax > 0.0) & (t <= tmax)
+    return closed.astype(np.int8) + stick
+
+
+def _predicted_gap(nt, state, dU, lam_new, lam):
+    """The spring gaps (S, 3) after the step dU (λ → lam_new); the state is
+    left as it was."""
+    m = nt.m
+    saved = _save_motion(state)
+    apply_increment(m, state, dU.reshape(nt.n, 6))
+    nt.set_prescribed(state, lam_new)
+    gap = np.empty((m.n_springs, 3))
+    spring_local_gap(model_arrays(m)[1], body_state(state), gap)
+    _restore(state, saved)
+    nt.set_prescribed(state, lam)
+    return gap
 
 
 def _load(nt, state, lam):
