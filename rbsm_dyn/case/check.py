@@ -13,7 +13,7 @@ from .output import Probe, RelativeProbe
 from .parts import (ScenePart, _box_size, part_solid, scene_parts, surface_indices,
                     surface_part)
 from .scene import GEOMETRY_KINDS
-from .solver import DYNAMIC_KEYS, MODAL_KEYS, STATIC_KEYS, default_static_method
+from .solver import DYNAMIC_KEYS, MODAL_KEYS, STATIC_KEYS, continuum_yield, default_static_method
 from .top import Case
 
 MAX_CELLS = 5e6          # a mesh with more cells than this is refused
@@ -226,6 +226,9 @@ def _check(case: Case) -> None:
                               f"(criterion {y.criterion})")
                 check_only(y, ["cohesion", "friction_angle"], yp,
                            f"with criterion {y.criterion} (only mohr_coulomb)")
+            if y.model == "continuum" and y.criterion not in ("tresca", "von_mises"):
+                raise err(yp + ("model",), f"continuum yield is for tresca and von_mises "
+                          f"materials, not {y.criterion} (an interface criterion)")
         r = mat.rupture
         if r is not None:
             rp = path + ("rupture",)
@@ -355,6 +358,10 @@ def _check(case: Case) -> None:
     if s.mode == "static" and not s.given("method"):
         s.method = default_static_method(case)
         s._method_default = True
+    if s.mode == "static" and s.method == "newton" and continuum_yield(case):
+        raise err(("solver", "method"), "newton does not follow continuum yield (materials "
+                  f"{', '.join(continuum_yield(case))}: yield.model continuum): leave "
+                  "solver.method out or give relaxation, or run the case in mode dynamic")
     if s.control is not None:
         cp = ("solver", "control")
         if s.method != "newton":

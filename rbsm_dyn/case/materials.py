@@ -13,12 +13,16 @@ class Yield(_Node):
     """Yield criterion of the springs (physics/laws/plastic.py): the
     traction of each spring point returned to the surface of ``criterion``
     with ``stress`` (normal, tresca, von_mises) or ``cohesion``,
-    ``friction_angle`` [degrees] and ``tension`` (mohr_coulomb)."""
+    ``friction_angle`` [degrees] and ``tension`` (mohr_coulomb).
+    ``model``: ``interface`` (default: the spring's traction alone decides)
+    or ``continuum`` (tresca, von_mises: the traction plus the in-plane
+    stress of the face's two cells, pressure-free)."""
     criterion: Literal["normal", "tresca", "von_mises", "mohr_coulomb"]
     stress: Optional[float] = Field(default=None, gt=0)
     cohesion: Optional[float] = Field(default=None, ge=0)
     friction_angle: Optional[float] = Field(default=None, ge=0, lt=90)  # degrees
     tension: Optional[float] = Field(default=None, ge=0)
+    model: Optional[Literal["interface", "continuum"]] = None
 
 
 class Rupture(_Node):

@@ -72,18 +72,31 @@ RELAXATION_KEYS = ("max_iterations", "relaxation", "damping_factor", "predictor"
 NEWTON_DEFAULT_MAX_BODIES = 50_000
 
 
+def continuum_yield(case) -> list:
+    """Names of the materials whose yield is judged on the continuum stress
+    (`yield.model: continuum`, physics/laws/plastic.py): each face's limit
+    depends on its cells' stress, which Newton's tangent does not hold
+    (issue 27: Newton with the lagged cell stress needed hundreds of
+    iterations), so static cases run them by relaxation, where the one-step
+    lag is that of an explicit step."""
+    return [name for name, m in case.materials.items()
+            if m.yield_ is not None and m.yield_.model == "continuum"]
+
+
 def default_static_method(case, n_bodies=None) -> str:
     """solver.method of a static case that does not give one: `newton`
     (Newton iterations with the consistent tangent: elastic, plastic and
     softening statics, large rotations; issue 30), unless the case gives
     keys of the relaxation (RELAXATION_KEYS) or has interfaces between
-    parts (frictional contact, where Newton stalls), or more than
+    parts (frictional contact, where Newton stalls) or continuum yield
+    (continuum_yield), or more than
     NEWTON_DEFAULT_MAX_BODIES bodies (``n_bodies``, when known); then
     `relaxation`.  solver.control needs `newton`."""
     s = case.solver
     if s.control is not None:
         return "newton"
-    if any(s.given(k) for k in RELAXATION_KEYS) or case.interfaces:
+    if (any(s.given(k) for k in RELAXATION_KEYS) or case.interfaces
+            or continuum_yield(case)):
         return "relaxation"
     if n_bodies is not None and n_bodies > NEWTON_DEFAULT_MAX_BODIES:
         return "relaxation"

@@ -8,9 +8,10 @@ import numpy as np
 from ..partition import spring_schedule
 from ..mesh import principal_axes
 from ..physics.integrate import FIXED
-from ..physics.laws import BROKEN, P_CRIT, P_RUPT
+from ..physics.laws import BROKEN, P_CRIT, P_MODEL, P_RUPT
+from ..physics.laws.plastic import CONTINUUM
 from ..physics.poisson import build_poisson, empty_poisson
-from ..physics.rotation import matrix_to_quat
+from ..physics.rotation import matrix_to_quat, quat_matrix_np
 from .contact import build_contact, contact_setting
 from .core import IDX, Model
 from .laws import body_materials, law_slots
@@ -54,7 +55,75 @@ def build_model(case, mesh=None):
         plane="" if case.plane is None else case.plane.kind,
         inelastic=bool(n_cut > 0 or np.any(springs["spring_state0"] >= BROKEN)
                        or np.any(laws.law_params[:, [P_CRIT, P_RUPT]] > 0)))
+    model = _yield_field(model, case)
     return _with_contact(case, model, notes)
+
+
+#: an axis carries "no springs" below this share of a cell's Σ A n_k²
+PLANE_SHARE = 1.0e-9
+
+
+def _yield_field(model, case):
+    """The model with the cell arrays of continuum yield (cell_ivol,
+    cell_plane, cell_lever, cell_iso; physics/laws/plastic.py) when some
+    law has it, else unchanged.  cell_iso 1 for a cell of a material with
+    continuum yield, whose plastic flow is kept isochoric
+    (physics/inelastic.py finish_cell_stress), except in plane stress
+    (its thickness takes the volume).
+
+    cell_plane: a world axis k along which no spring of a cell acts (its
+    springs' Σ A n_k² below PLANE_SHARE of their Σ A) while the cell's
+    translation along k is held (fixed or prescribed): a cell of a
+    one-cell-thick slab held in plane strain, or of a plane-strain model
+    (Model.plane), whose out-of-plane normal stress no spring carries
+    (physics/inelastic.py finish_cell_stress); none in plane stress.
+    cell_lever (N+1, 3, 3) [m]: row k, the lever of the reaction of a
+    translation held along axis k (other than the plane axis; zero if
+    free), for the cell stress of the held cells."""
+    P = model.law_params
+    if not np.any((P[:, P_MODEL] == CONTINUUM) & (P[:, P_CRIT] > 0)):
+        return model
+    n = model.n_bodies
+    ivol = np.zeros(n + 1)
+    ivol[:n] = 1.0 / model.body_volume
+    normal = quat_matrix_np(model.face_frame0)[:, :, 0][model.spring_slot]    # (S, 3)
+    w = model.spring_area[:, None] * normal * normal
+    share = np.zeros((n + 1, 3))
+    np.add.at(share, model.spring_bodies[:, 0], w)
+    np.add.at(share, model.spring_bodies[:, 1], w)
+    share = share[:n]
+    total = share.sum(axis=1, keepdims=True)
+    held = model.dof_kind[:, :3] != 0
+    lacking = (share <= PLANE_SHARE * total) & held
+    plane = np.full(n + 1, -1, dtype=np.int8)
+    rows = np.flatnonzero(lacking.any(axis=1))
+    plane[rows] = np.argmax(lacking[rows], axis=1)
+    if model.plane == "stress":
+        plane[:] = -1          # plane stress: σzz = 0, what the springs give
+    held &= ~lacking
+    # a held translation's reaction acts where the cell meets what holds it:
+    # its lever along axis k is the centroid of the cell's boundary faces
+    # weighted by area × |n_k| (a platen's cells: their loaded face)
+    mesh = model.mesh
+    lever = np.zeros((n + 1, 3, 3))
+    bc = mesh.bface_cell
+    if len(bc):
+        w = mesh.bface_area[:, None] * np.abs(mesh.bface_normal)          # (B, 3)
+        wsum = np.zeros((n, 3))
+        np.add.at(wsum, bc, w)
+        for k in range(3):
+            acc = np.zeros((n, 3))
+            np.add.at(acc, bc, w[:, k:k + 1] * mesh.bface_centroid)
+            ok = held[:, k] & (wsum[:, k] > 0.0)
+            lever[:n][ok, k] = (acc[ok] / wsum[ok, k:k + 1]
+                                - model.body_pos0[:n][ok])
+    iso = np.zeros(n + 1)
+    for i, mat in enumerate(case.materials.values()):
+        y = mat.yield_
+        if y is not None and y.model == "continuum" and model.plane != "stress":
+            iso[np.flatnonzero(model.body_material == i)] = 1.0
+    return dataclasses.replace(model, cell_ivol=ivol, cell_plane=plane, cell_lever=lever,
+                               cell_iso=iso)
 
 
 def _parts_and_groups(case, mesh):

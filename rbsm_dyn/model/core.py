@@ -112,6 +112,14 @@ class Model:
     warnings: tuple = ()          # messages for the user (conflicting constraints, ...)
     contact: object = None        # contact.ContactModel, None: no contact
     plane: str = ""               # "strain" | "stress": a plane model (physics/plane.py); "": 3D
+    # continuum yield (physics/laws/plastic.py; length 0 without it):
+    # 1/V (N+1,) [1/m³] (0: the ground) and the plane-strain axis of a cell
+    # of a one-cell-thick slab (N+1,) int8, −1 none (build.py _yield_field)
+    cell_ivol: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    cell_plane: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int8))
+    cell_lever: np.ndarray = field(default_factory=lambda: np.zeros((0, 3, 3)))
+    # and 1 where a cell's plastic flow is kept isochoric (build.py _yield_field)
+    cell_iso: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     @property
     def poisson_on(self):

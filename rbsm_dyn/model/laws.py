@@ -8,9 +8,18 @@ import numpy as np
 from ..calibration import plane_stiffness_rule, stiffness_rule
 from ..fracture_calibration import fracture_ratios
 from ..physics.laws import (CONTACT_OFF, CRITERIA, N_PARAMS, P_COH, P_CRIT, P_EPSCR, P_FT,
-                            P_GF, P_GS, P_MU, P_RS, P_RUPT, P_SY, P_TANPHI, P_TENSION,
+                            P_GF, P_GS, P_MODEL, P_MU, P_RS, P_RUPT, P_SY, P_TANPHI, P_TENSION,
                             RUPTURE_KINDS)
+from ..physics.laws.plastic import MODELS
 from .core import IDX
+
+
+def yield_model(y):
+    """`interface` or `continuum` (physics/laws/plastic.py) of a yield key:
+    its `model`, by default interface."""
+    if y.model is not None:
+        return y.model
+    return "interface"
 
 
 def elastic_law_row():
@@ -38,6 +47,7 @@ def material_law_row(mat, mesh_kind="voronoi", cell_size=None):
             row[P_TENSION] = np.inf if y.tension is None else y.tension
         else:
             row[P_SY] = y.stress
+        row[P_MODEL] = MODELS[yield_model(y)]
     r = mat.rupture
     if r is not None:
         if r.strain is not None:

@@ -33,6 +33,10 @@ class State:
     the plane passes' own (solvers/plane.py), saved by checkpoints so that
     a restart goes on bit for bit; plane_synced: they hold the plane
     state's values (else they are taken from the slab's arrays first).
+    Continuum yield (length 0 unless the model has it, physics/laws/plastic.py):
+    cell_moment (N+1, 7) [N m, m³] scratch, cell_sigma (N+1, 6) [Pa] each
+    cell's stress at the last spring pass, cell_dep (N+1, 6) its plastic
+    strain increment for the next pass (checkpointed: cell_sigma, cell_dep).
     Poisson correction scratch (length 0 unless Model.poisson_on; not
     saved by checkpoints): aux_g (n_slots, 3) [1/m], aux_p (7, N)
     (physics/poisson.py poisson_pass)."""
@@ -56,6 +60,9 @@ class State:
     spring_wf: np.ndarray = None
     cell_chi: np.ndarray = None
     cell_wf: np.ndarray = None
+    cell_moment: np.ndarray = None
+    cell_sigma: np.ndarray = None
+    cell_dep: np.ndarray = None
     aux_g: np.ndarray = None
     aux_p: np.ndarray = None
     body_theta: np.ndarray = None
@@ -87,6 +94,10 @@ def new_state(model):
     st.spring_dmg = np.zeros(si)
     st.spring_wp = np.zeros(si)
     st.spring_wf = np.zeros(si)
+    nc = n + 1 if model.cell_ivol.size else 0
+    st.cell_moment = np.zeros((nc, 7))
+    st.cell_sigma = np.zeros((nc, 6))
+    st.cell_dep = np.zeros((nc, 6))
     on = model.poisson_on
     ci = n if (si and on) else 0
     st.cell_chi = np.ones(ci)      # no link is damaged at the start (cuts are no links)

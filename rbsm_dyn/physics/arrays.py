@@ -16,7 +16,12 @@ Model (static over a run)
                  (F, 4); face_k (F, 3) [N/m³]; face_h (F,) [m]; face_law (F,)
                  int32; law_params (L, N_PARAMS) [Pa, 1, J/m²]; group_ptr
                  (G+1,), phase_ptr (P+1,) the thread-safe schedule
-                 (partition.py)
+                 (partition.py); cell_ivol (N+1,) [1/m³] 1/V (0: the
+                 ground), cell_plane (N+1,) int8 a plane-strain slab's
+                 axis or −1, cell_lever (N+1, 3, 3) [m] the levers of held
+                 translations' reactions, cell_iso (N+1,) 1 where the
+                 cell's plastic flow is kept isochoric (length 0 without
+                 continuum yield)
   Loads          body_fext, body_mext (N, 3) [N, N m] dead loads;
                  body_ffol, body_mfol (N, 3) or (0, 3) follower loads
                  (principal frame); body_load_hist (N,) int32; gravity (3,)
@@ -37,7 +42,12 @@ State (changes every step)
                  (physics/inelastic.py); cell_chi (N,) the auxiliary
                  stress's factor χ_c at the last step and cell_wf (N,) [J]
                  the energy its fall released (physics/poisson.py; length
-                 0 without the Poisson correction)
+                 0 without the Poisson correction);
+                 continuum yield (laws/plastic.py;
+                 length 0 without it): cell_moment (N+1, 7) [N m, m³]
+                 gathered Σ sym(l ⊗ f) and plastic volume, cell_sigma (N+1, 6) [Pa] the cell
+                 stress of the last pass (xx yy zz yz xz xy), cell_dep
+                 (N+1, 6) its plastic volume correction for the next pass
 Features (None when a scene does not use them: the pass is not compiled)
   PoissonSlots   the auxiliary stress (physics/poisson.py): cell_slot_ptr
                  (N+1,) int32 each cell's links (slots); slot_cell,
@@ -108,6 +118,10 @@ class Springs(NamedTuple):
     law_params: np.ndarray
     group_ptr: np.ndarray
     phase_ptr: np.ndarray
+    cell_ivol: np.ndarray
+    cell_plane: np.ndarray
+    cell_lever: np.ndarray
+    cell_iso: np.ndarray
 
 
 class Loads(NamedTuple):
@@ -152,6 +166,9 @@ class SpringHistory(NamedTuple):
     spring_wf: np.ndarray
     cell_chi: np.ndarray
     cell_wf: np.ndarray
+    cell_moment: np.ndarray
+    cell_sigma: np.ndarray
+    cell_dep: np.ndarray
 
 
 class PoissonSlots(NamedTuple):
@@ -260,7 +277,8 @@ class PlaneSprings(NamedTuple):
     spring_slot (S,) int32; spring_area (S,) [m²]; face_n0 (F, 2) the rest
     normal from a to b; face_k (F, 2) [N/m³] (k_n, k_s) per area, k_s along
     e_z × n; face_h (F,) [m]; face_law (F,) int32; law_params (L,
-    N_PARAMS); group_ptr, phase_ptr the schedule (partition.py)."""
+    N_PARAMS); group_ptr, phase_ptr the schedule (partition.py);
+    cell_ivol, cell_plane, cell_lever of continuum yield as in Springs."""
     spring_bodies: np.ndarray
     spring_arm_a: np.ndarray
     spring_arm_b: np.ndarray
@@ -273,6 +291,10 @@ class PlaneSprings(NamedTuple):
     law_params: np.ndarray
     group_ptr: np.ndarray
     phase_ptr: np.ndarray
+    cell_ivol: np.ndarray
+    cell_plane: np.ndarray
+    cell_lever: np.ndarray
+    cell_iso: np.ndarray
 
 
 class PlaneLoads(NamedTuple):

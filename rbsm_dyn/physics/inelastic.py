@@ -36,14 +36,14 @@ import math
 import numba as nb
 import numpy as np
 
-from .laws import (BROKEN, CONTACT, ELASTIC, P_COH, P_CRIT, P_EPSCR, P_FT, P_GF, P_GS, P_MU,
-                   P_RS, P_RUPT, P_SY, P_TANPHI, P_TENSION, YIELDED)
+from .laws import (BROKEN, CONTACT, ELASTIC, P_COH, P_CRIT, P_EPSCR, P_FT, P_GF, P_GS, P_MODEL,
+                   P_MU, P_RS, P_RUPT, P_SY, P_TANPHI, P_TENSION, YIELDED)
 from .laws.contact import CONTACT_OFF, contact_traction
-from .laws.plastic import plastic_return
+from .laws.plastic import CONTINUUM, continuum_radius, continuum_return, plastic_return
 from .laws.rupture import (MIXED, SOFTENING, STRAIN, equivalent_strain, mixed_mode_damage,
                            softening_damage)
 from .springs import (add_wrench, clear_part, flush_a, gap_and_scaled_frame, material_points,
-                      mid_increment, scaled_frame)
+                      mid_increment, part_range, scaled_frame)
 
 JIT = dict(cache=True, nogil=True, fastmath=False, error_model="numpy")
 
@@ -90,7 +90,7 @@ def _crossing_share(r, rho):
 @nb.njit(inline="always", **JIT)
 def spring_law(s, f, dn, ds, dt, turned, area, kn, ks, kt, face_h, face_law, law_params,
                spring_state, spring_dp, spring_kappa, spring_dmg, spring_wp, spring_wf,
-               substep):
+               substep, cm, cr):
     """The inelastic law of spring point s (of face f) at its local gap
     (dn, ds, dt) [m] in the turned spring frame: its traction's forces
     (fn, fs, ft) [N], the history updated (module docstring, steps 1-4,
@@ -98,7 +98,9 @@ def spring_law(s, f, dn, ds, dt, turned, area, kn, ks, kt, face_h, face_law, law
     stiffness (area [m²] × the face's per area); `turned`: the pair has
     turned by more than a right angle against each other (a broken pair
     then parts).  Shared by the 3D pass (_inelastic_group) and the plane
-    pass (physics/plane.py), which differ only in their kinematics."""
+    pass (physics/plane.py), which differ only in their kinematics.
+    cm, cr [Pa]: the face's centre and radius of continuum yield
+    (laws/plastic.py; read by a law with P_MODEL = CONTINUUM only)."""
     li = face_law[f]           # the law's row (scalars read in place: a row view
                                # costs a reference count per spring)
     state = spring_state[s]
@@ -151,11 +153,14 @@ def spring_law(s, f, dn, ds, dt, turned, area, kn, ks, kt, face_h, face_law, law
         ft = (1.0 - dmg) * kt * et
         crit = law_params[li, P_CRIT]
         if crit > 0:
-            gn, gs, gt, yielded = plastic_return(int(crit), law_params[li, P_SY] * area,
-                                                 law_params[li, P_COH] * area,
-                                                 law_params[li, P_TANPHI],
-                                                 law_params[li, P_TENSION] * area,
-                                                 kn, ks, fn, fs, ft)
+            if law_params[li, P_MODEL] == CONTINUUM:
+                gn, gs, gt, yielded = continuum_return(cm * area, cr * area, kn, ks, fn, fs, ft)
+            else:
+                gn, gs, gt, yielded = plastic_return(int(crit), law_params[li, P_SY] * area,
+                                                     law_params[li, P_COH] * area,
+                                                     law_params[li, P_TANPHI],
+                                                     law_params[li, P_TENSION] * area,
+                                                     kn, ks, fn, fs, ft)
             if yielded:
                 # (a support may hold only some components: k = 0 there)
                 pn = (fn - gn) / kn if kn > 0.0 else 0.0
@@ -246,14 +251,92 @@ def spring_law(s, f, dn, ds, dt, turned, area, kn, ks, kt, face_h, face_law, law
 
 
 @nb.njit(inline="always", **JIT)
+def _quad(x, u0, u1, u2, v0, v1, v2):
+    """u·σ·v of the symmetric σ = x (6,) in the order xx yy zz yz xz xy."""
+    return (u0 * v0 * x[0] + u1 * v1 * x[1] + u2 * v2 * x[2]
+            + (u1 * v2 + u2 * v1) * x[3] + (u0 * v2 + u2 * v0) * x[4]
+            + (u0 * v1 + u1 * v0) * x[5])
+
+
+@nb.njit(inline="always", **JIT)
+def _times(x, l0, l1, l2):
+    """σ·l of the symmetric σ = x (6,) in the order xx yy zz yz xz xy."""
+    return (x[0] * l0 + x[5] * l1 + x[4] * l2,
+            x[5] * l0 + x[1] * l1 + x[3] * l2,
+            x[4] * l0 + x[3] * l1 + x[2] * l2)
+
+
+@nb.njit(inline="always", **JIT)
+def face_centre_radius(a, b, crit, sy, cell_sigma, s0, s1, s2, t0, t1, t2):
+    """(m, R) [Pa] of continuum yield at a face (laws/plastic.py): the
+    stress within its plane, tangents s and t (world), from the mean cell
+    stress of its two cells (of cell a alone for a support, b the ground),
+    m = (σss + σtt)/2, q² = (σss − σtt)²/4 + σst², R² = σy'² − 3 q²."""
+    x = cell_sigma[a]
+    sss = _quad(x, s0, s1, s2, s0, s1, s2)
+    stt = _quad(x, t0, t1, t2, t0, t1, t2)
+    sst = _quad(x, s0, s1, s2, t0, t1, t2)
+    if b != cell_sigma.shape[0] - 1:
+        y = cell_sigma[b]
+        sss = 0.5 * (sss + _quad(y, s0, s1, s2, s0, s1, s2))
+        stt = 0.5 * (stt + _quad(y, t0, t1, t2, t0, t1, t2))
+        sst = 0.5 * (sst + _quad(y, s0, s1, s2, t0, t1, t2))
+    d = 0.5 * (sss - stt)
+    return 0.5 * (sss + stt), math.sqrt(continuum_radius(crit, sy, d * d + sst * sst))
+
+
+@nb.njit(inline="always", **JIT)
+def plastic_offset(a, b, cell_dep, la0, la1, la2, lb0, lb1, lb2):
+    """The plastic gap [m] (world) a spring point takes from the plastic
+    strain increments of its two cells (continuum yield's volume
+    correction, finish_cell_stress): each cell strains about its centroid,
+    so its material point at the spring moves by ε_c l_c (l the lever from
+    the centroid to the point, springs.add_wrench), and the gap p_b − p_a
+    loses ε_a l_a − ε_b l_b (the ground's row is zero); for a uniform ε,
+    ε (x_b − x_a)."""
+    xa0, xa1, xa2 = _times(cell_dep[a], la0, la1, la2)
+    xb0, xb1, xb2 = _times(cell_dep[b], lb0, lb1, lb2)
+    return xa0 - xb0, xa1 - xb1, xa2 - xb2
+
+
+@nb.njit(inline="always", **JIT)
+def add_moment(c, sign, l0, l1, l2, f0, f1, f2, cell_moment):
+    """Add sign · sym(l ⊗ f) [N m] to cell c's row (xx yy zz yz xz xy)."""
+    cell_moment[c, 0] += sign * l0 * f0
+    cell_moment[c, 1] += sign * l1 * f1
+    cell_moment[c, 2] += sign * l2 * f2
+    cell_moment[c, 3] += sign * 0.5 * (l1 * f2 + l2 * f1)
+    cell_moment[c, 4] += sign * 0.5 * (l0 * f2 + l2 * f0)
+    cell_moment[c, 5] += sign * 0.5 * (l0 * f1 + l1 * f0)
+
+
+@nb.njit(inline="always", **JIT)
+def clear_moment(p, parts, cell_moment):
+    """Zero the moment rows of the bodies of part p (as springs.clear_part)."""
+    i0, i1 = part_range(p, parts, cell_moment.shape[0] - 1)
+    for i in range(i0, i1):
+        for k in range(7):
+            cell_moment[i, k] = 0.0
+
+
+@nb.njit(inline="always", **JIT)
 def _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
                      spring_slot, face_frame0, face_k, spring_area, face_h, face_law, law_params,
                      body_pos, body_rot, body_dq, body_wrench, body_support,
                      spring_state, spring_dp, spring_kappa, spring_dmg, spring_wp, spring_wf,
-                     store, spring_force, substep):
+                     store, spring_force, substep, cell_sigma, cell_dep, cell_moment):
     """The springs of group g, in order (partition.py).  The spring points
     of one face follow each other (same a, b and reference frame): their
-    turned frame F is computed once per face (springs._elastic_group)."""
+    turned frame F is computed once per face (springs._elastic_group).
+    With continuum yield (cell_moment has rows) an intact spring of such a
+    law first takes the plastic gap of its cells' volume correction
+    (cell_dep, plastic_offset) into spring_dp, booking its work at the new
+    force, then yields on its face's centre and radius from its cells'
+    stress (face_centre_radius); the springs' Σ sym(l ⊗ f) and half of
+    each one's plastic normal gap × area (the plastic volume of its two
+    cells) are gathered into their cells' rows of cell_moment (the same
+    schedule as the wrenches: no atomics)."""
+    gather = cell_moment.shape[0] > 0
     s0 = group_ptr[g]
     s1 = group_ptr[g + 1]
     if s1 == s0:
@@ -289,9 +372,31 @@ def _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
         kn = face_k[f, 0] * area
         ks = face_k[f, 1] * area
         kt = face_k[f, 2] * area
+        pn = ps = pt = cm = cr = dp0 = 0.0
+        cont = (gather and law_params[face_law[f], P_MODEL] == CONTINUUM
+                and spring_state[s] < BROKEN)
+        if cont:
+            o0, o1, o2 = plastic_offset(a, b, cell_dep, la0, la1, la2, lb0, lb1, lb2)
+            pn = F00 * o0 + F10 * o1 + F20 * o2
+            ps = F01 * o0 + F11 * o1 + F21 * o2
+            pt = F02 * o0 + F12 * o1 + F22 * o2
+            spring_dp[s, 0] += pn
+            spring_dp[s, 1] += ps
+            spring_dp[s, 2] += pt
+            li = face_law[f]
+            cm, cr = face_centre_radius(a, b, int(law_params[li, P_CRIT]), law_params[li, P_SY],
+                                        cell_sigma, F01, F11, F21, F02, F12, F22)
+            dp0 = spring_dp[s, 0]
         fn, fs, ft = spring_law(s, f, dn, ds, dt, n2 < N2_PARTED, area, kn, ks, kt, face_h,
                                 face_law, law_params, spring_state, spring_dp, spring_kappa,
-                                spring_dmg, spring_wp, spring_wf, substep)
+                                spring_dmg, spring_wp, spring_wf, substep, cm, cr)
+        if cont:
+            spring_wp[s] += fn * pn + fs * ps + ft * pt
+            if spring_state[s] < BROKEN:
+                v = 0.5 * area * (spring_dp[s, 0] - dp0)
+                cell_moment[a, 6] += v
+                if b != cell_moment.shape[0] - 1:
+                    cell_moment[b, 6] += v
         f0 = F00 * fn + F01 * fs + F02 * ft
         f1 = F10 * fn + F11 * fs + F12 * ft
         f2 = F20 * fn + F21 * fs + F22 * ft
@@ -302,6 +407,11 @@ def _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
             spring_force[s, 0] = f0
             spring_force[s, 1] = f1
             spring_force[s, 2] = f2
+        if gather:
+            # lever arms to the force's point (springs.add_wrench)
+            add_moment(a, 1.0, la0, la1, la2, f0, f1, f2, cell_moment)
+            if b != cell_moment.shape[0] - 1:
+                add_moment(b, -1.0, lb0, lb1, lb2, f0, f1, f2, cell_moment)
     flush_a(cur, w0, w1, w2, w3, w4, w5, body_wrench)
 
 @nb.njit(parallel=True, **JIT)
@@ -331,14 +441,20 @@ def _inelastic_phase(lo, hi, parts, springs, bs, hist, store, substep):
     spring_dmg = hist.spring_dmg
     spring_wp = hist.spring_wp
     spring_wf = hist.spring_wf
+    cell_sigma = hist.cell_sigma
+    cell_dep = hist.cell_dep
+    cell_moment = hist.cell_moment
+    gather = cell_moment.shape[0] > 0
     for g in nb.prange(lo, hi):
         if g < parts:
             clear_part(g, parts, body_wrench, body_support)
+            if gather:
+                clear_moment(g, parts, cell_moment)
         _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spring_slot,
                          face_frame0, face_k, spring_area, face_h, face_law, law_params,
                          body_pos, body_rot, body_dq, body_wrench, body_support, spring_state,
                          spring_dp, spring_kappa, spring_dmg, spring_wp, spring_wf, store,
-                         spring_force, substep)
+                         spring_force, substep, cell_sigma, cell_dep, cell_moment)
 
 
 @nb.njit(**JIT)
@@ -367,16 +483,22 @@ def _inelastic_serial(springs, bs, hist, store, substep):
     spring_dmg = hist.spring_dmg
     spring_wp = hist.spring_wp
     spring_wf = hist.spring_wf
+    cell_sigma = hist.cell_sigma
+    cell_dep = hist.cell_dep
+    cell_moment = hist.cell_moment
+    gather = cell_moment.shape[0] > 0
     phase_ptr = springs.phase_ptr
     parts = phase_ptr[1]
     for g in range(0, phase_ptr[phase_ptr.shape[0] - 1]):
         if g < parts:
             clear_part(g, parts, body_wrench, body_support)
+            if gather:
+                clear_moment(g, parts, cell_moment)
         _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spring_slot,
                          face_frame0, face_k, spring_area, face_h, face_law, law_params,
                          body_pos, body_rot, body_dq, body_wrench, body_support, spring_state,
                          spring_dp, spring_kappa, spring_dmg, spring_wp, spring_wf, store,
-                         spring_force, substep)
+                         spring_force, substep, cell_sigma, cell_dep, cell_moment)
 
 
 @nb.njit(**JIT)
@@ -396,6 +518,75 @@ def inelastic_spring_pass(springs, bs, hist, store, substep, parallel):
     for ph in range(phase_ptr.shape[0] - 1):
         _inelastic_phase(phase_ptr[ph], phase_ptr[ph + 1], parts, springs, bs, hist, store,
                          substep)
+
+
+@nb.njit(**JIT)
+def finish_cell_stress(springs, bs, hist):
+    """Continuum yield (laws/plastic.py), after a spring pass: each cell's
+    stress σ_c = Σ sym(l ⊗ f)/V_c [Pa] (Love–Weber, physics/cell_stress.py)
+    from the moments the pass gathered, for the faces' limits of the next
+    pass; and its plastic volume: each face yields on its own multiplier,
+    so the faces' plastic normal gaps change the cells' volume (J2 flow
+    does not: without this the mean stress drifts on a plastic plateau),
+    θ_c = Σ ½ A δn_p / V_c, taken back as the isotropic plastic strain
+    −θ_c/3 (−θ_c/2 in a plane-strain cell's plane) in cell_dep for the next
+    pass (plastic_offset; cell_iso 0, in plane stress: none).
+
+    A cell held along axis k (fixed or prescribed: a platen's, a grip's
+    cells) takes a reaction R_k = −(its springs' force)_k that acts where it
+    meets what holds it, at the lever cell_lever[c, k] (model/build.py):
+    sym(l ⊗ e_k) R_k/V_c is added (without it such a cell's stress is about
+    half the stress it passes on).  A cell with no springs along an axis it
+    is held on (cell_plane ≥ 0: a one-cell-thick slab held in plane strain,
+    a plane-strain model's cell along z) takes for that normal stress the
+    mean of the other two, its value in plastic flow (Hill 1950, ch. VI), so
+    that it flows in plane strain."""
+    cell_moment = hist.cell_moment
+    cell_sigma = hist.cell_sigma
+    cell_dep = hist.cell_dep
+    cell_ivol = springs.cell_ivol
+    cell_plane = springs.cell_plane
+    cell_lever = springs.cell_lever
+    cell_iso = springs.cell_iso
+    body_wrench = bs.body_wrench
+    for c in range(cell_ivol.shape[0] - 1):
+        iv = cell_ivol[c]
+        for k in range(6):
+            cell_sigma[c, k] = cell_moment[c, k] * iv
+        for k in range(3):
+            l0, l1, l2 = cell_lever[c, k, 0], cell_lever[c, k, 1], cell_lever[c, k, 2]
+            if l0 != 0.0 or l1 != 0.0 or l2 != 0.0:
+                r = -body_wrench[c, k] * iv
+                # sym(l ⊗ e_k) r in the order xx yy zz yz xz xy
+                cell_sigma[c, k] += l0 * r if k == 0 else (l1 * r if k == 1 else l2 * r)
+                if k == 0:
+                    cell_sigma[c, 5] += 0.5 * l1 * r
+                    cell_sigma[c, 4] += 0.5 * l2 * r
+                elif k == 1:
+                    cell_sigma[c, 5] += 0.5 * l0 * r
+                    cell_sigma[c, 3] += 0.5 * l2 * r
+                else:
+                    cell_sigma[c, 4] += 0.5 * l0 * r
+                    cell_sigma[c, 3] += 0.5 * l1 * r
+        ax = cell_plane[c]
+        if ax >= 0:
+            cell_sigma[c, ax] = 0.5 * (cell_sigma[c, (ax + 1) % 3] + cell_sigma[c, (ax + 2) % 3])
+        for k in range(6):
+            cell_dep[c, k] = 0.0
+        if cell_iso[c] > 0.0:
+            # the plastic volume its faces' returns gave it this pass, taken
+            # back by an isotropic plastic strain in the next (in plane
+            # strain: in its plane)
+            th = cell_moment[c, 6] * iv
+            if ax >= 0:
+                th *= 0.5
+                for k in range(3):
+                    if k != ax:
+                        cell_dep[c, k] = -th
+            else:
+                th *= 1.0 / 3.0
+                for k in range(3):
+                    cell_dep[c, k] = -th
 
 
 @nb.njit(**JIT)

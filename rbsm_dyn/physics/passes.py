@@ -9,7 +9,7 @@ correction compiles the elastic spring pass and nothing else here.
 """
 import numba as nb
 
-from .inelastic import inelastic_spring_pass
+from .inelastic import finish_cell_stress, inelastic_spring_pass
 from .poisson import poisson_pass
 from .springs import elastic_spring_pass
 
@@ -32,5 +32,7 @@ def spring_forces(springs, bs, hist, aux, store, substep, parallel):
         elastic_spring_pass(springs, bs, store, parallel)
     else:
         inelastic_spring_pass(springs, bs, hist, store, substep, parallel)
+        if hist.cell_moment.shape[0] > 0:
+            finish_cell_stress(springs, bs, hist)
     if aux is not None:
         poisson_pass(aux, bs, hist, parallel)

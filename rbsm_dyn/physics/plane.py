@@ -23,7 +23,10 @@ one-cell slab give the same forces to round-off (tests/test_plane.py).
 import numba as nb
 import numpy as np
 
-from .inelastic import spring_law
+from .inelastic import (add_moment, clear_moment, face_centre_radius, finish_cell_stress,
+                        plastic_offset, spring_law)
+from .laws import BROKEN, P_CRIT, P_MODEL, P_SY
+from .laws.plastic import CONTINUUM
 from .integrate import FIXED, FREE, VELOCITY, amplitude
 from .springs import part_range
 from ..partition import PARTS
@@ -178,11 +181,17 @@ def plane_spring_pass(psprings, ps, store, parallel):
 def _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spring_slot,
                      face_n0, face_k, spring_area, face_h, face_law, law_params, body_pos,
                      body_cs, body_wrench, body_support, spring_state, spring_dp, spring_kappa,
-                     spring_dmg, spring_wp, spring_wf, store, spring_force, substep):
+                     spring_dmg, spring_wp, spring_wf, store, spring_force, substep, cell_sigma,
+                     cell_dep, cell_moment):
     """The springs of group g with the inelastic law (physics/inelastic.py
     spring_law, shared with the 3D pass): the local gap in the frame
     (n, e_z × n, e_z) turned by the mid rotation (model/springs.py
-    plane_frames: the same components as the slab's), δt = 0."""
+    plane_frames: the same components as the slab's), δt = 0.  Continuum
+    yield as the 3D pass (its faces' tangents τ = e_z × n and e_z): the
+    volume correction (plastic_offset, along n and τ), the face's limits
+    from its cells' stress, the cells' Σ sym(l ⊗ f) (xx, yy, xy) and
+    plastic volume gathered into cell_moment."""
+    gather = cell_moment.shape[0] > 0
     s0 = group_ptr[g]
     s1 = group_ptr[g + 1]
     if s1 == s0:
@@ -215,10 +224,31 @@ def _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, sp
         area = spring_area[s]
         kn = face_k[f, 0] * area
         ks = face_k[f, 1] * area
+        pn = ps = cm = cr = dp0 = 0.0
+        cont = (gather and law_params[face_law[f], P_MODEL] == CONTINUUM
+                and spring_state[s] < BROKEN)
+        if cont:
+            o0, o1, _ = plastic_offset(a, b, cell_dep, ua0 + 0.5 * d0, ua1 + 0.5 * d1, 0.0,
+                                       ub0 - 0.5 * d0, ub1 - 0.5 * d1, 0.0)
+            pn = nx * o0 + ny * o1
+            ps = nx * o1 - ny * o0
+            spring_dp[s, 0] += pn
+            spring_dp[s, 1] += ps
+            li = face_law[f]
+            cm, cr = face_centre_radius(a, b, int(law_params[li, P_CRIT]), law_params[li, P_SY],
+                                        cell_sigma, -ny, nx, 0.0, 0.0, 0.0, 1.0)
+            dp0 = spring_dp[s, 0]
         # turned by more than a right angle against each other: cos(θa − θb) < 0
         fn, fs, ft = spring_law(s, f, dn, ds, 0.0, ca * cb + sa * sb < 0.0, area, kn, ks, ks,
                                 face_h, face_law, law_params, spring_state, spring_dp,
-                                spring_kappa, spring_dmg, spring_wp, spring_wf, substep)
+                                spring_kappa, spring_dmg, spring_wp, spring_wf, substep, cm, cr)
+        if cont:
+            spring_wp[s] += fn * pn + fs * ps
+            if spring_state[s] < BROKEN:
+                v = 0.5 * area * (spring_dp[s, 0] - dp0)
+                cell_moment[a, 6] += v
+                if b != ground:
+                    cell_moment[b, 6] += v
         f0 = fn * nx - fs * ny
         f1 = fn * ny + fs * nx
         if a != cur:
@@ -240,6 +270,11 @@ def _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, sp
         if store:
             spring_force[s, 0] = f0
             spring_force[s, 1] = f1
+        if gather:
+            add_moment(a, 1.0, ua0 + 0.5 * d0, ua1 + 0.5 * d1, 0.0, f0, f1, 0.0, cell_moment)
+            if b != ground:
+                add_moment(b, -1.0, ub0 - 0.5 * d0, ub1 - 0.5 * d1, 0.0, f0, f1, 0.0,
+                           cell_moment)
     body_wrench[cur, 0] += w0
     body_wrench[cur, 1] += w1
     body_wrench[cur, 2] += w2
@@ -270,14 +305,20 @@ def _inelastic_phase(lo, hi, parts, psprings, ps, hist, store, substep):
     spring_dmg = hist.spring_dmg
     spring_wp = hist.spring_wp
     spring_wf = hist.spring_wf
+    cell_sigma = hist.cell_sigma
+    cell_dep = hist.cell_dep
+    cell_moment = hist.cell_moment
+    gather = cell_moment.shape[0] > 0
     for g in nb.prange(lo, hi):
         if g < parts:
             _clear_part(g, parts, body_wrench, body_support)
+            if gather:
+                clear_moment(g, parts, cell_moment)
         _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spring_slot,
                          face_n0, face_k, spring_area, face_h, face_law, law_params, body_pos,
                          body_cs, body_wrench, body_support, spring_state, spring_dp,
                          spring_kappa, spring_dmg, spring_wp, spring_wf, store, spring_force,
-                         substep)
+                         substep, cell_sigma, cell_dep, cell_moment)
 
 
 @nb.njit(**IJIT)
@@ -305,16 +346,22 @@ def _inelastic_serial(psprings, ps, hist, store, substep):
     spring_dmg = hist.spring_dmg
     spring_wp = hist.spring_wp
     spring_wf = hist.spring_wf
+    cell_sigma = hist.cell_sigma
+    cell_dep = hist.cell_dep
+    cell_moment = hist.cell_moment
+    gather = cell_moment.shape[0] > 0
     phase_ptr = psprings.phase_ptr
     parts = phase_ptr[1]
     for g in range(0, phase_ptr[phase_ptr.shape[0] - 1]):
         if g < parts:
             _clear_part(g, parts, body_wrench, body_support)
+            if gather:
+                clear_moment(g, parts, cell_moment)
         _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spring_slot,
                          face_n0, face_k, spring_area, face_h, face_law, law_params, body_pos,
                          body_cs, body_wrench, body_support, spring_state, spring_dp,
                          spring_kappa, spring_dmg, spring_wp, spring_wf, store, spring_force,
-                         substep)
+                         substep, cell_sigma, cell_dep, cell_moment)
 
 
 @nb.njit(**IJIT)
@@ -324,12 +371,17 @@ def plane_inelastic_pass(psprings, ps, hist, store, substep, parallel):
     explicit step (physics/inelastic.py).  `parallel` None: one thread."""
     if parallel is None:
         _inelastic_serial(psprings, ps, hist, store, substep)
-        return
-    phase_ptr = psprings.phase_ptr
-    parts = phase_ptr[1]
-    for ph in range(phase_ptr.shape[0] - 1):
-        _inelastic_phase(phase_ptr[ph], phase_ptr[ph + 1], parts, psprings, ps, hist, store,
-                         substep)
+    else:
+        phase_ptr = psprings.phase_ptr
+        parts = phase_ptr[1]
+        for ph in range(phase_ptr.shape[0] - 1):
+            _inelastic_phase(phase_ptr[ph], phase_ptr[ph + 1], parts, psprings, ps, hist,
+                             store, substep)
+    if hist.cell_moment.shape[0] > 0:
+        # continuum yield: the cells' stress for the next pass (the 3D
+        # finish: ps.body_wrench's columns 0, 1 are the forces, and a plane
+        # model holds no cell along z by a lever)
+        finish_cell_stress(psprings, ps, hist)
 
 
 @nb.njit(inline="always", **JIT)

@@ -57,9 +57,10 @@ SLOTS = ("slot0", "slot1")
 ARRAYS = ("body_pos", "body_quat", "body_vel", "body_angmom", "body_rot", "body_dq",
           "body_wrench", "body_support", "spring_force", "body_work", "body_damp",
           "body_reaction", "spring_state", "spring_dp", "spring_kappa", "spring_dmg",
-          "spring_wp", "spring_wf", "cell_chi", "cell_wf", "body_theta", "body_omega")
+          "spring_wp", "spring_wf", "cell_chi", "cell_wf", "body_theta", "body_omega",
+          "cell_sigma", "cell_dep")
 #: State arrays a checkpoint of an older rbsm_dyn lacks (the new state's values kept)
-OPTIONAL = ("cell_chi", "cell_wf", "body_theta", "body_omega")
+OPTIONAL = ("cell_chi", "cell_wf", "body_theta", "body_omega", "cell_sigma", "cell_dep")
 #: ContactState arrays saved: one row per candidate pair (grow as pairs come)
 CONTACT_PAIR_ARRAYS = ("pairs", "slip", "sep", "out")
 #: ... and one row per body

@@ -36,4 +36,6 @@ P_GF = 8          # fracture energy G_f [J/m²] (softening)
 P_MU = 9          # Coulomb friction μ of a broken face
 P_RS = 10         # shear-to-tensile strength ratio f_s/f_t (mixed_mode)
 P_GS = 11         # mode-II fracture energy G_s [J/m²] (mixed_mode)
-N_PARAMS = 12
+P_MODEL = 12      # yield judged on: 0 the spring's traction (interface), 1 the
+                  # continuum stress at the face (plastic.CONTINUUM; tresca, von_mises)
+N_PARAMS = 13

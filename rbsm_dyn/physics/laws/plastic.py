@@ -13,6 +13,28 @@ Criteria (ids as stored in law_params):
                 zero dilatancy (non-associated: the normal part is returned
                 only by the cut-off), as in DEM bond models (Cundall &
                 Strack 1979; Potyondy & Cundall 2004).
+
+These are interface criteria (`model: interface`): the traction alone
+decides, so a pressure σn = −σy yields a spring whatever the stress beside
+it, and a block lattice's strength depends on direction.  `model:
+continuum` (tresca, von_mises) judges yield as Kawai's programs did, on the
+stress of the continuum (Kawai 1978, "New discrete models and their
+application to seismic response analysis of structures", Nucl. Eng. Des.
+48; Kawai & Toi 1977): each cell's stress σ_c, the Love–Weber average of
+its springs' forces, is returned to J2's cylinder √J2 ≤ k (k = σy/2 for
+tresca, σy/√3 for von_mises: in plane strain, where the out-of-plane stress
+is the mean of the in-plane ones in plastic flow, the two are one
+criterion, Hill 1950, ch. VI) by the radial return of J2 plasticity (Simo
+& Hughes 1998, §3.3.1); the cell's plastic strain increment, deviatoric,
+moves the plastic gaps of its springs by h ε_p n (half from each of a
+face's two cells), physics/inelastic.py finish_cell_stress and
+plastic_offset.  Pressure is free, the plastic flow isochoric, the
+strength the same in every direction of the mesh.  A face-wise return on
+the face's traction and its cells' in-plane stress (tried first, issue 27)
+is also pressure-free, but each face flows on its own multiplier: the
+plastic flow then changes volume and the mean stress drifts (a 2D block
+square in pure shear: σxx + σyy from 0 to 2.5 k at 10 yield strains), and
+Prandtl's punch came at 0.79 of (2 + π)k.
 """
 import math
 
@@ -21,6 +43,8 @@ import numba as nb
 JIT = dict(cache=True, nogil=True, fastmath=False, error_model="numpy")
 
 NONE, NORMAL, TRESCA, VON_MISES, MOHR_COULOMB = 0, 1, 2, 3, 4
+INTERFACE, CONTINUUM = 0, 1          # law_params[P_MODEL]
+MODELS = {"interface": INTERFACE, "continuum": CONTINUUM}
 CRITERIA = {"normal": NORMAL, "tresca": TRESCA, "von_mises": VON_MISES,
             "mohr_coulomb": MOHR_COULOMB}
 
@@ -86,3 +110,28 @@ def plastic_return(crit, sy, coh, tanphi, tension, kn, ks, sn, ss, st):
             yielded = 1
         return sn, ss, st, yielded
     return sn, ss, st, 0
+
+
+@nb.njit(inline="always", **JIT)
+def continuum_radius(crit, sy, q2):
+    """R² [Pa²] of the continuum ellipse (module docstring) of criterion
+    crit (TRESCA or VON_MISES) with yield stress sy, for the in-plane shear
+    q² of the face; 0 when the in-plane stress alone is beyond yield."""
+    if crit == TRESCA:
+        sy = 0.8660254037844386 * sy          # k = σy/2: von Mises with √3 σy/2
+    r2 = sy * sy - 3.0 * q2
+    return r2 if r2 > 0.0 else 0.0
+
+
+@nb.njit(inline="always", **JIT)
+def continuum_return(m, r, kn, ks, sn, ss, st):
+    """Admissible forces (σn, τs, τt) on (σn − m)² + 3 τ² ≤ r² (forces [N]:
+    m and r times the spring's area) for the trial forces of the same name;
+    returns them and whether the spring yielded."""
+    u = sn - m
+    if u * u + 3.0 * (ss * ss + st * st) <= r * r:
+        return sn, ss, st, 0
+    if r <= 0.0:
+        return m, 0.0, 0.0, 1
+    a, b, d = _ellipse_return(u, ss, st, kn, ks, 3.0, r)
+    return m + a, b, d, 1

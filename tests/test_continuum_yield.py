@@ -1,0 +1,134 @@
+"""Continuum yield (`yield.model: continuum`, physics/laws/plastic.py):
+each cell's Love–Weber stress returned to J2's cylinder √J2 ≤ k, its
+deviatoric plastic strain moving its springs' plastic gaps (Kawai 1978:
+yield judged on the stress of the continuum, not a spring's traction).
+
+Facts checked, from the criterion's formulas:
+* blocks in plane-strain pure shear at 45° to the cells (σxx = −σyy = s:
+  the faces carry normal traction only) flow at s = k = σy/2 (Tresca),
+  the strength at 0°, where the interface criterion gives σy (issue 27:
+  the lattice's plastic strength depended on direction); the plastic flow
+  is isochoric, so the mean stress stays 0 on the plateau;
+* a 2D Voronoi mesh in the same test flows at k (its cells' stress is the
+  continuum's under a uniform strain, whatever the cells' directions);
+* a pressure never yields (von Mises and Tresca do not depend on it);
+* the energy balance closes with the plastic work booked on the springs.
+"""
+import textwrap
+
+import numpy as np
+import pytest
+
+from rbsm_dyn.case import CaseError, load_case_text
+
+E, SY = 200.0e9, 200.0e6
+K = SY / 2.0                   # Tresca: k = σy/2
+L, T = 0.01, 0.0025            # the square [m] and the plane's thickness
+V = 0.05                       # edge speed [m/s]: 20 yield strains in 4e-4 s
+
+
+def biaxial(mesh, model="continuum", vx=V, vy=-V, plane=True):
+    """A square in plane strain, its left and bottom edges on rollers, its
+    right column of cells pulled at vx and top row at vy (explicit,
+    quasi-static: 200 transits of the square)."""
+    if plane:
+        dom, sel, fix = f"[[0, 0], [{L}, {L}]]", "", ""
+        right = f"[[{0.75 * L}, -1], [1, 1]]"
+        top = f"[[-1, {0.75 * L}], [1, 1]]"
+        vel_r, vel_t = f"[{vx}, null]", f"[null, {vy}]"
+        head = f"plane: {{kind: strain, thickness: {T}}}"
+        ymin = "ymin"
+    else:
+        dom = f"[[0, 0, 0], [{L}, {T}, {L}]]"
+        right = f"[[{0.75 * L}, -1, -1], [1, 1, 1]]"
+        top = f"[[-1, -1, {0.75 * L}], [1, 1, 1]]"
+        vel_r, vel_t = f"[{vx}, null, null]", f"[null, null, {vy}]"
+        head = ""
+        ymin = "zmin"
+        fix = "\n      - {group: all, fix: [y]}"
+        sel = ""
+    comp = "y" if plane else "z"
+    return f"""
+    name: biaxial
+    {head}
+    domain: {{box: {dom}}}
+    mesh: {mesh}
+    materials:
+      steel: {{density: 7800, young: {E}, poisson: 0.0,
+               yield: {{criterion: tresca, stress: {SY}, model: {model}}}}}
+    groups:
+      right: {{box: {right}}}
+      top: {{box: {top}}}
+    boundary:
+      - {{face: xmin, fix: [x]}}
+      - {{face: {ymin}, fix: [{comp}]}}{fix}{sel}
+      - {{group: right, velocity: {vel_r}}}
+      - {{group: top, velocity: {vel_t}}}
+    solver: {{mode: dynamic, end_time: 4.0e-4, damping: {{local: 0.7}}}}
+    output:
+      interval: 2.0e-5
+      probes:
+        fx: {{group: right, quantity: reaction, component: x, reduce: sum}}
+        fy: {{group: top, quantity: reaction, component: {comp}, reduce: sum}}
+    """
+
+
+def _plateau(h, area):
+    """σxx, σyy [Pa] of the last quarter of the run (the plateau)."""
+    n = len(h.observables["fx"])
+    sx = np.asarray(h.observables["fx"][3 * n // 4:]) / area
+    sy = np.asarray(h.observables["fy"][3 * n // 4:]) / area
+    return sx, sy
+
+
+@pytest.mark.parametrize("plane", [True, False], ids=["plane", "slab"])
+def test_blocks_pure_shear_at_45_degrees(run_case, plane):
+    """Blocks 4 × 4 (a plane model and its one-block slab): σxx and −σyy on
+    the plateau within 1 % of k, their mean within 1 % of k of zero
+    (isochoric flow), plastic work booked, energy balance within 1 %."""
+    h = run_case(biaxial("{kind: blocks, divisions: [4, 4]}" if plane
+                         else "{kind: blocks, divisions: [4, 1, 4]}", plane=plane))
+    sx, sy = _plateau(h, L * T)
+    assert np.all(np.abs(sx / K - 1.0) < 1e-2), sx / K
+    assert np.all(np.abs(-sy / K - 1.0) < 1e-2), sy / K
+    assert np.all(np.abs(sx + sy) < 2e-2 * K)
+    assert h.observables["plastic"][-1] > 0.0
+    e = h.energy_balance()
+    assert abs(e["error"][-1]) <= 1e-2 * e["supplied"][-1]
+
+
+def test_interface_criterion_is_twice_as_strong_at_45_degrees(run_case):
+    """The interface Tresca (√(σn² + 4τ²) ≤ σy) on the same blocks: the
+    faces carry σn alone, so they yield at σy = 2k (the anisotropy the
+    continuum criterion removes), within 2 %."""
+    h = run_case(biaxial("{kind: blocks, divisions: [4, 4]}", model="interface"))
+    sx, _ = _plateau(h, L * T)
+    assert sx[-1] / SY == pytest.approx(1.0, abs=2e-2)
+
+
+def test_voronoi_pure_shear(run_case):
+    """2D Voronoi cells (1 mm, 100 cells): the plateau of σxx − σyy within
+    5 % of 2k, whatever the faces' directions."""
+    h = run_case(biaxial("{kind: voronoi, size: 0.001, seed: 3}"))
+    sx, sy = _plateau(h, L * T)
+    assert np.all(np.abs((sx - sy) / (2.0 * K) - 1.0) < 5e-2), (sx - sy) / (2 * K)
+
+
+def test_pressure_never_yields(run_case):
+    """Both edges pressed in (σxx = σyy = −p, p up to E ε = 4 k): nothing
+    yields (J2 = 0 in plane strain, σzz the mean), where the interface
+    criterion caps the normal tractions at σy."""
+    h = run_case(biaxial("{kind: blocks, divisions: [4, 4]}", vx=-V, vy=-V))
+    assert h.observables["plastic"][-1] == 0.0
+    sx, sy = _plateau(h, L * T)
+    assert -sx[-1] == pytest.approx(4.0 * K, rel=0.05)      # E ε, ν = 0
+
+
+def test_newton_refused():
+    """`solver.method: newton` with continuum yield: a CaseError naming
+    solver.method (Newton's tangent does not hold the cells' stress)."""
+    text = biaxial("{kind: blocks, divisions: [4, 4]}").replace(
+        "solver: {mode: dynamic, end_time: 4.0e-4, damping: {local: 0.7}}",
+        "solver: {mode: static, method: newton, load_steps: 4}")
+    with pytest.raises(CaseError, match="solver.method"):
+        load_case_text(textwrap.dedent(text))
