@@ -115,6 +115,12 @@ TABLE: dict[str, Check] = {
         note="the case file to end_time 0.012 s (0.24 mm lift, past the peak): peak within "
              "15 %, the first broken springs at the corner; the crack's path across the leg "
              "and the post-peak curve are not compared"),
+    "punch.yaml": Check(
+        "Prandtl's limit pressure (2 + π) k (Hill 1950, ch. VIII)",
+        ("tests/test_continuum_yield.py::test_punch_limit_pressure",),
+        reads_case=True,
+        note="the case file to 0.4 mm depth (2 % of B): the pressure within 0 … +15 % of "
+             "(2 + π) k, k the blocks' shear strength in pure shear (the test above)"),
     "masonry_arch.yaml": Check(
         "P_c = 0.533 W (Heyman), hinges at joints 1, 4, 8, 11; stands under its weight and "
         "0.7 P_c; folds at 1.3 P_c about the predicted hinges",

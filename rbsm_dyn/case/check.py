@@ -105,6 +105,13 @@ def _check_part(case: Case, part: ScenePart):
     return (x0, y0, z0), (x1, y1, z1), volume
 
 
+def _mesh_kinds(case, material):
+    """The mesh kinds of the parts of `material` (the one-part shorthand's)."""
+    if case.parts:
+        return {p.mesh.kind for p in case.parts.values() if p.material == material}
+    return {case.mesh.kind} if case.mesh is not None else set()
+
+
 def _check(case: Case) -> None:
     """Rules across fields.  Raises the first CaseError found."""
     err = case.error
@@ -229,6 +236,10 @@ def _check(case: Case) -> None:
             if y.model == "continuum" and y.criterion not in ("tresca", "von_mises"):
                 raise err(yp + ("model",), f"continuum yield is for tresca and von_mises "
                           f"materials, not {y.criterion} (an interface criterion)")
+            if y.model == "continuum" and "voronoi" in _mesh_kinds(case, name):
+                raise err(yp + ("model",), "continuum yield is for block meshes (mesh.kind "
+                          "blocks): on Voronoi cells it hardens, about +50 % over ten yield "
+                          "strains of pure shear (issue 27; docs/theory.md, Yield)")
         r = mat.rupture
         if r is not None:
             rp = path + ("rupture",)

@@ -65,11 +65,10 @@ PLANE_SHARE = 1.0e-9
 
 def _yield_field(model, case):
     """The model with the cell arrays of continuum yield (cell_ivol,
-    cell_plane, cell_lever, cell_iso; physics/laws/plastic.py) when some
-    law has it, else unchanged.  cell_iso 1 for a cell of a material with
-    continuum yield, whose plastic flow is kept isochoric
-    (physics/inelastic.py finish_cell_stress), except in plane stress
-    (its thickness takes the volume).
+    cell_plane, cell_lever, cell_k, cell_2g; physics/laws/plastic.py) when
+    some law has it, else unchanged.  cell_k [Pa] the shear strength k of
+    the cell's material (σy/2 tresca, σy/√3 von_mises; 0: no continuum
+    yield), cell_2g [Pa] its 2G = E/(1 + ν).
 
     cell_plane: a world axis k along which no spring of a cell acts (its
     springs' Σ A n_k² below PLANE_SHARE of their Σ A) while the cell's
@@ -117,13 +116,17 @@ def _yield_field(model, case):
             ok = held[:, k] & (wsum[:, k] > 0.0)
             lever[:n][ok, k] = (acc[ok] / wsum[ok, k:k + 1]
                                 - model.body_pos0[:n][ok])
-    iso = np.zeros(n + 1)
+    k = np.zeros(n + 1)
+    g2 = np.ones(n + 1)
     for i, mat in enumerate(case.materials.values()):
         y = mat.yield_
-        if y is not None and y.model == "continuum" and model.plane != "stress":
-            iso[np.flatnonzero(model.body_material == i)] = 1.0
+        if y is None or y.model != "continuum":
+            continue
+        rows = np.flatnonzero(model.body_material == i)
+        k[rows] = y.stress / (2.0 if y.criterion == "tresca" else np.sqrt(3.0))
+        g2[rows] = mat.young / (1.0 + mat.poisson)
     return dataclasses.replace(model, cell_ivol=ivol, cell_plane=plane, cell_lever=lever,
-                               cell_iso=iso)
+                               cell_k=k, cell_2g=g2)
 
 
 def _parts_and_groups(case, mesh):

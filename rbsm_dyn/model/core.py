@@ -118,8 +118,9 @@ class Model:
     cell_ivol: np.ndarray = field(default_factory=lambda: np.zeros(0))
     cell_plane: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int8))
     cell_lever: np.ndarray = field(default_factory=lambda: np.zeros((0, 3, 3)))
-    # and 1 where a cell's plastic flow is kept isochoric (build.py _yield_field)
-    cell_iso: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    # and each cell's shear strength k [Pa] and 2G [Pa] (build.py _yield_field)
+    cell_k: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    cell_2g: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     @property
     def poisson_on(self):

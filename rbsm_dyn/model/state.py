@@ -34,7 +34,7 @@ class State:
     a restart goes on bit for bit; plane_synced: they hold the plane
     state's values (else they are taken from the slab's arrays first).
     Continuum yield (length 0 unless the model has it, physics/laws/plastic.py):
-    cell_moment (N+1, 7) [N m, m³] scratch, cell_sigma (N+1, 6) [Pa] each
+    cell_moment (N+1, 6) [N m] scratch, cell_sigma (N+1, 6) [Pa] each
     cell's stress at the last spring pass, cell_dep (N+1, 6) its plastic
     strain increment for the next pass (checkpointed: cell_sigma, cell_dep).
     Poisson correction scratch (length 0 unless Model.poisson_on; not
@@ -95,7 +95,7 @@ def new_state(model):
     st.spring_wp = np.zeros(si)
     st.spring_wf = np.zeros(si)
     nc = n + 1 if model.cell_ivol.size else 0
-    st.cell_moment = np.zeros((nc, 7))
+    st.cell_moment = np.zeros((nc, 6))
     st.cell_sigma = np.zeros((nc, 6))
     st.cell_dep = np.zeros((nc, 6))
     on = model.poisson_on

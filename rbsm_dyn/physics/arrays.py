@@ -19,9 +19,8 @@ Model (static over a run)
                  (partition.py); cell_ivol (N+1,) [1/m³] 1/V (0: the
                  ground), cell_plane (N+1,) int8 a plane-strain slab's
                  axis or −1, cell_lever (N+1, 3, 3) [m] the levers of held
-                 translations' reactions, cell_iso (N+1,) 1 where the
-                 cell's plastic flow is kept isochoric (length 0 without
-                 continuum yield)
+                 translations' reactions, cell_k, cell_2g (N+1,) [Pa] the
+                 shear strength and 2G (length 0 without continuum yield)
   Loads          body_fext, body_mext (N, 3) [N, N m] dead loads;
                  body_ffol, body_mfol (N, 3) or (0, 3) follower loads
                  (principal frame); body_load_hist (N,) int32; gravity (3,)
@@ -44,10 +43,10 @@ State (changes every step)
                  the energy its fall released (physics/poisson.py; length
                  0 without the Poisson correction);
                  continuum yield (laws/plastic.py;
-                 length 0 without it): cell_moment (N+1, 7) [N m, m³]
-                 gathered Σ sym(l ⊗ f) and plastic volume, cell_sigma (N+1, 6) [Pa] the cell
+                 length 0 without it): cell_moment (N+1, 6) [N m]
+                 gathered Σ sym(l ⊗ f), cell_sigma (N+1, 6) [Pa] the cell
                  stress of the last pass (xx yy zz yz xz xy), cell_dep
-                 (N+1, 6) its plastic volume correction for the next pass
+                 (N+1, 6) its plastic strain increment for the next pass
 Features (None when a scene does not use them: the pass is not compiled)
   PoissonSlots   the auxiliary stress (physics/poisson.py): cell_slot_ptr
                  (N+1,) int32 each cell's links (slots); slot_cell,
@@ -121,7 +120,8 @@ class Springs(NamedTuple):
     cell_ivol: np.ndarray
     cell_plane: np.ndarray
     cell_lever: np.ndarray
-    cell_iso: np.ndarray
+    cell_k: np.ndarray
+    cell_2g: np.ndarray
 
 
 class Loads(NamedTuple):
@@ -294,7 +294,8 @@ class PlaneSprings(NamedTuple):
     cell_ivol: np.ndarray
     cell_plane: np.ndarray
     cell_lever: np.ndarray
-    cell_iso: np.ndarray
+    cell_k: np.ndarray
+    cell_2g: np.ndarray
 
 
 class PlaneLoads(NamedTuple):

@@ -23,9 +23,9 @@ one-cell slab give the same forces to round-off (tests/test_plane.py).
 import numba as nb
 import numpy as np
 
-from .inelastic import (add_moment, clear_moment, face_centre_radius, finish_cell_stress,
-                        plastic_offset, spring_law)
-from .laws import BROKEN, P_CRIT, P_MODEL, P_SY
+from .inelastic import (add_moment, clear_moment, finish_cell_stress, plastic_offset,
+                        spring_law)
+from .laws import BROKEN, P_MODEL
 from .laws.plastic import CONTINUUM
 from .integrate import FIXED, FREE, VELOCITY, amplitude
 from .springs import part_range
@@ -181,16 +181,15 @@ def plane_spring_pass(psprings, ps, store, parallel):
 def _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spring_slot,
                      face_n0, face_k, spring_area, face_h, face_law, law_params, body_pos,
                      body_cs, body_wrench, body_support, spring_state, spring_dp, spring_kappa,
-                     spring_dmg, spring_wp, spring_wf, store, spring_force, substep, cell_sigma,
-                     cell_dep, cell_moment):
+                     spring_dmg, spring_wp, spring_wf, store, spring_force, substep, cell_dep,
+                     cell_moment):
     """The springs of group g with the inelastic law (physics/inelastic.py
     spring_law, shared with the 3D pass): the local gap in the frame
     (n, e_z × n, e_z) turned by the mid rotation (model/springs.py
     plane_frames: the same components as the slab's), δt = 0.  Continuum
-    yield as the 3D pass (its faces' tangents τ = e_z × n and e_z): the
-    volume correction (plastic_offset, along n and τ), the face's limits
-    from its cells' stress, the cells' Σ sym(l ⊗ f) (xx, yy, xy) and
-    plastic volume gathered into cell_moment."""
+    yield as the 3D pass: the spring takes its cells' plastic flow
+    (plastic_offset, along n and τ), the cells' Σ sym(l ⊗ f) (xx, yy, xy)
+    are gathered into cell_moment."""
     gather = cell_moment.shape[0] > 0
     s0 = group_ptr[g]
     s1 = group_ptr[g + 1]
@@ -224,7 +223,7 @@ def _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, sp
         area = spring_area[s]
         kn = face_k[f, 0] * area
         ks = face_k[f, 1] * area
-        pn = ps = cm = cr = dp0 = 0.0
+        pn = ps = 0.0
         cont = (gather and law_params[face_law[f], P_MODEL] == CONTINUUM
                 and spring_state[s] < BROKEN)
         if cont:
@@ -234,21 +233,12 @@ def _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, sp
             ps = nx * o1 - ny * o0
             spring_dp[s, 0] += pn
             spring_dp[s, 1] += ps
-            li = face_law[f]
-            cm, cr = face_centre_radius(a, b, int(law_params[li, P_CRIT]), law_params[li, P_SY],
-                                        cell_sigma, -ny, nx, 0.0, 0.0, 0.0, 1.0)
-            dp0 = spring_dp[s, 0]
         # turned by more than a right angle against each other: cos(θa − θb) < 0
         fn, fs, ft = spring_law(s, f, dn, ds, 0.0, ca * cb + sa * sb < 0.0, area, kn, ks, ks,
                                 face_h, face_law, law_params, spring_state, spring_dp,
-                                spring_kappa, spring_dmg, spring_wp, spring_wf, substep, cm, cr)
+                                spring_kappa, spring_dmg, spring_wp, spring_wf, substep)
         if cont:
             spring_wp[s] += fn * pn + fs * ps
-            if spring_state[s] < BROKEN:
-                v = 0.5 * area * (spring_dp[s, 0] - dp0)
-                cell_moment[a, 6] += v
-                if b != ground:
-                    cell_moment[b, 6] += v
         f0 = fn * nx - fs * ny
         f1 = fn * ny + fs * nx
         if a != cur:
@@ -305,7 +295,6 @@ def _inelastic_phase(lo, hi, parts, psprings, ps, hist, store, substep):
     spring_dmg = hist.spring_dmg
     spring_wp = hist.spring_wp
     spring_wf = hist.spring_wf
-    cell_sigma = hist.cell_sigma
     cell_dep = hist.cell_dep
     cell_moment = hist.cell_moment
     gather = cell_moment.shape[0] > 0
@@ -318,7 +307,7 @@ def _inelastic_phase(lo, hi, parts, psprings, ps, hist, store, substep):
                          face_n0, face_k, spring_area, face_h, face_law, law_params, body_pos,
                          body_cs, body_wrench, body_support, spring_state, spring_dp,
                          spring_kappa, spring_dmg, spring_wp, spring_wf, store, spring_force,
-                         substep, cell_sigma, cell_dep, cell_moment)
+                         substep, cell_dep, cell_moment)
 
 
 @nb.njit(**IJIT)
@@ -346,7 +335,6 @@ def _inelastic_serial(psprings, ps, hist, store, substep):
     spring_dmg = hist.spring_dmg
     spring_wp = hist.spring_wp
     spring_wf = hist.spring_wf
-    cell_sigma = hist.cell_sigma
     cell_dep = hist.cell_dep
     cell_moment = hist.cell_moment
     gather = cell_moment.shape[0] > 0
@@ -361,7 +349,7 @@ def _inelastic_serial(psprings, ps, hist, store, substep):
                          face_n0, face_k, spring_area, face_h, face_law, law_params, body_pos,
                          body_cs, body_wrench, body_support, spring_state, spring_dp,
                          spring_kappa, spring_dmg, spring_wp, spring_wf, store, spring_force,
-                         substep, cell_sigma, cell_dep, cell_moment)
+                         substep, cell_dep, cell_moment)
 
 
 @nb.njit(**IJIT)

@@ -61,7 +61,7 @@ def plane_arrays(model):
     springs = PlaneSprings(m.spring_bodies, f64(arm_a), f64(arm_b), m.spring_slot,
                            m.spring_area, f64(nrm[:, :2]), face_k, m.face_h, m.face_law,
                            m.law_params, m.group_ptr, m.phase_ptr, m.cell_ivol, m.cell_plane,
-                           m.cell_lever, m.cell_iso)
+                           m.cell_lever, m.cell_k, m.cell_2g)
     fext = np.concatenate([m.body_fext[:, :2], m.body_mext[:, 2:3]], axis=1)
     if len(m.body_ffol):
         # follower loads in the principal frame -> the body's rest axes

@@ -110,28 +110,3 @@ def plastic_return(crit, sy, coh, tanphi, tension, kn, ks, sn, ss, st):
             yielded = 1
         return sn, ss, st, yielded
     return sn, ss, st, 0
-
-
-@nb.njit(inline="always", **JIT)
-def continuum_radius(crit, sy, q2):
-    """R² [Pa²] of the continuum ellipse (module docstring) of criterion
-    crit (TRESCA or VON_MISES) with yield stress sy, for the in-plane shear
-    q² of the face; 0 when the in-plane stress alone is beyond yield."""
-    if crit == TRESCA:
-        sy = 0.8660254037844386 * sy          # k = σy/2: von Mises with √3 σy/2
-    r2 = sy * sy - 3.0 * q2
-    return r2 if r2 > 0.0 else 0.0
-
-
-@nb.njit(inline="always", **JIT)
-def continuum_return(m, r, kn, ks, sn, ss, st):
-    """Admissible forces (σn, τs, τt) on (σn − m)² + 3 τ² ≤ r² (forces [N]:
-    m and r times the spring's area) for the trial forces of the same name;
-    returns them and whether the spring yielded."""
-    u = sn - m
-    if u * u + 3.0 * (ss * ss + st * st) <= r * r:
-        return sn, ss, st, 0
-    if r <= 0.0:
-        return m, 0.0, 0.0, 1
-    a, b, d = _ellipse_return(u, ss, st, kn, ks, 3.0, r)
-    return m + a, b, d, 1
