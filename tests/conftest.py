@@ -47,6 +47,31 @@ def run_case(tmp_path):
 
 
 @pytest.hookimpl(tryfirst=True)
+@pytest.fixture
+def thread_states(tmp_path):
+    """thread_states(yaml_text) -> the final checkpoint states of the case
+    run in a subprocess with 1 and then 2 threads (NUMBA_NUM_THREADS=2)."""
+    import subprocess
+    import sys
+    from rbsm_dyn.solvers.checkpoint import read_checkpoint
+
+    def run(text):
+        case = tmp_path / "threads.yaml"
+        case.write_text(text)
+        got = []
+        for threads in (1, 2):
+            out = tmp_path / f"t{threads}.h5"
+            env = dict(os.environ, NUMBA_NUM_THREADS="2")
+            r = subprocess.run([sys.executable, "-m", "rbsm_dyn", str(case), "--out", str(out),
+                                "--quiet", "--threads", str(threads)], env=env,
+                               capture_output=True, text=True, timeout=900)
+            assert r.returncode == 0, r.stderr
+            got.append(read_checkpoint(out)[0])
+        return got
+
+    return run
+
+
 def pytest_collection_modifyitems(config, items):
     """Group the tests that share a module-scoped fixture (xdist_group by
     module; read by pytest-xdist's loadgroup scheduling after this hook)."""

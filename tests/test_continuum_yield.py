@@ -182,25 +182,11 @@ def test_punch_restart_is_bitwise(tmp_path):
         assert np.array_equal(got[name], want[name]), name
 
 
-def test_punch_threads_give_the_same_numbers(tmp_path):
+def test_punch_threads_give_the_same_numbers(thread_states):
     """The cell stress is gathered in the springs' schedule (no atomics):
     1 and 2 threads end in the same state bit for bit."""
-    import os
-    import subprocess
-    import sys
-    from rbsm_dyn.solvers.checkpoint import ARRAYS, read_checkpoint
-    case = tmp_path / "case.yaml"
-    case.write_text(_small_punch(0.8e-3))
-    got = []
-    for threads in (1, 2):
-        out = tmp_path / f"t{threads}.h5"
-        env = dict(os.environ, NUMBA_NUM_THREADS="2")
-        r = subprocess.run([sys.executable, "-m", "rbsm_dyn", str(case), "--out", str(out),
-                            "--quiet", "--threads", str(threads)], env=env,
-                           capture_output=True, text=True, timeout=900)
-        assert r.returncode == 0, r.stderr
-        got.append(read_checkpoint(out)[0])
-    a, b = got
+    from rbsm_dyn.solvers.checkpoint import ARRAYS
+    a, b = thread_states(_small_punch(0.8e-3))
     assert np.abs(a["cell_dep"]).max() > 0.0
     for name in ARRAYS:
         assert np.array_equal(a[name], b[name]), name

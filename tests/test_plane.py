@@ -223,29 +223,15 @@ def test_plane_restart_is_bitwise(tmp_path):
         assert np.array_equal(got[name], want[name]), name
 
 
-def test_plane_threads_give_the_same_numbers(tmp_path):
+def test_plane_threads_give_the_same_numbers(thread_states):
     """The plane passes' schedule (partition.py) sums every body's forces in
     one order: 1 and 2 threads end in the same state bit for bit (a model
     above SERIAL_SPRINGS spring points, so the threaded variants run)."""
-    import os
-    import subprocess
-    import sys
     from rbsm_dyn.physics.springs import SERIAL_SPRINGS
-    from rbsm_dyn.solvers.checkpoint import ARRAYS, read_checkpoint
+    from rbsm_dyn.solvers.checkpoint import ARRAYS
     text = SPIN.replace("END", "2.0e-4").replace("size: 0.01", "size: 0.004")
     assert build_model(load_case_text(text)).n_springs >= SERIAL_SPRINGS
-    case = tmp_path / "case.yaml"
-    case.write_text(text)
-    got = []
-    for threads in (1, 2):
-        out = tmp_path / f"t{threads}.h5"
-        env = dict(os.environ, NUMBA_NUM_THREADS="2")
-        r = subprocess.run([sys.executable, "-m", "rbsm_dyn", str(case), "--out", str(out),
-                            "--quiet", "--threads", str(threads)], env=env,
-                           capture_output=True, text=True, timeout=900)
-        assert r.returncode == 0, r.stderr
-        got.append(read_checkpoint(out)[0])
-    a, b = got
+    a, b = thread_states(text)
     assert np.abs(a["body_theta"]).max() > 1e-3
     for name in ARRAYS:
         assert np.array_equal(a[name], b[name]), name
