@@ -46,7 +46,6 @@ def run_case(tmp_path):
     return run
 
 
-@pytest.hookimpl(tryfirst=True)
 @pytest.fixture
 def thread_states(tmp_path):
     """thread_states(yaml_text) -> the final checkpoint states of the case
@@ -72,9 +71,13 @@ def thread_states(tmp_path):
     return run
 
 
+@pytest.hookimpl(tryfirst=True)
 def pytest_collection_modifyitems(config, items):
     """Group the tests that share a module-scoped fixture (xdist_group by
-    module; read by pytest-xdist's loadgroup scheduling after this hook)."""
+    module), so that one worker runs them and the fixture once.  tryfirst:
+    pytest-xdist's own hook reads the marks into the node ids, and without
+    it ran first and saw none (the fixtures of test_case_answers ran on
+    both workers, about 9 min of the suite's CPU)."""
     for item in items:
         info = getattr(item, "_fixtureinfo", None)
         if info is None:
