@@ -121,6 +121,13 @@ TABLE: dict[str, Check] = {
         reads_case=True,
         note="the case file to 0.4 mm depth (2 % of B): the pressure within 0 … +15 % of "
              "(2 + π) k, k the blocks' shear strength in pure shear (the test above)"),
+    "notched_plate_2d.yaml": Check(
+        "Hill's deep-notch limit load (2 + π) k × ligament × t = 514.2 N (Hill 1950, "
+        "ch. VIII; Miller 1988)",
+        ("tests/test_continuum_yield.py::test_notched_plate_limit_load",),
+        reads_case=True,
+        note="the case file itself: the plateau within −5 … +15 % of the limit load; the "
+             "header's 144 × 64 and E/σy = 10³ figures are not computed"),
     "masonry_arch.yaml": Check(
         "P_c = 0.533 W (Heyman), hinges at joints 1, 4, 8, 11; stands under its weight and "
         "0.7 P_c; folds at 1.3 P_c about the predicted hinges",
