@@ -18,7 +18,8 @@ def parser():
                "and the residual too); the history is in SI units whatever the case's units.")
     p.add_argument("command_or_case", help="run | check | info, or the case file to run "
                    "(export | render | plot RUN.h5: see python -m rbsm_dyn export --help; "
-                   "bench: time the explicit loop, python -m rbsm_dyn bench --help)")
+                   "bench: time the explicit loop, python -m rbsm_dyn bench --help; "
+                   "spectrum RECORD|RUN.h5: response spectra, python -m rbsm_dyn spectrum --help)")
     p.add_argument("case", nargs="?", help="case file (after a command)")
     p.add_argument("--out", help="output HDF5 file (overrides output.file)")
     p.add_argument("--quiet", action="store_true",
