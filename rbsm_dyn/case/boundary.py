@@ -3,9 +3,9 @@ displacements), ``initial`` (velocities at t = 0) and ``loads``; the
 discriminated unions of the boundary and load items."""
 from __future__ import annotations
 
-from typing import Annotated, Any, Optional, Union
+from typing import Annotated, Any, Literal, Optional, Union
 
-from pydantic import BaseModel, Discriminator, Tag
+from pydantic import BaseModel, Discriminator, Field, Tag
 
 from .base import (Box, Component, Face, FaceComponent, History, Vec3, Vec3Free,
                    _fix_list, _Node)
@@ -91,6 +91,22 @@ class SurfaceLoad(_Node):
     traction: Optional[Vec3] = None
     follower: bool = False
     history: Optional[History] = None
+
+
+class GroundMotion(_Node):
+    """``ground_motion: {file: record.csv, units: g, direction: [1, 0, 0]}``:
+    the ground moves with an acceleration record (a text file of time and
+    acceleration columns, or one column with ``dt``), integrated to its
+    displacement (rbsm_dyn/records.py); every ``{group, fix}`` support
+    moves with it along ``direction``."""
+    file: str
+    columns: Annotated[list[Annotated[int, Field(ge=0)]], Field(min_length=2, max_length=2)] = [0, 1]
+    dt: Optional[float] = Field(default=None, gt=0)
+    skip: int = Field(default=0, ge=0)
+    units: Literal["m/s2", "g"] = "m/s2"
+    scale: float = 1.0
+    direction: Vec3 = [1.0, 0.0, 0.0]
+    baseline: Literal["linear", "none"] = "linear"
 
 
 class Gravity(_Node):

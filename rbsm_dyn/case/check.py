@@ -366,6 +366,9 @@ def _check(case: Case) -> None:
             check_only(s, STATIC_KEYS, ("solver",), f"in mode {s.mode}")
     if s.mode != "modal":
         check_only(s, MODAL_KEYS, ("solver",), f"in mode {s.mode}")
+    if case.ground_motion is not None and s.mode != "dynamic":
+        raise err(("ground_motion",), f"a ground motion needs solver.mode dynamic (got {s.mode}): "
+                  "a record is a history in time")
     if s.mode == "static" and not s.given("method"):
         s.method = default_static_method(case)
         s._method_default = True

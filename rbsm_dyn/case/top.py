@@ -7,7 +7,7 @@ from typing import Literal, Optional
 from pydantic import Field, PrivateAttr
 
 from .base import _Node
-from .boundary import BoundaryItem, Group, InitialVelocity, LoadItem
+from .boundary import BoundaryItem, GroundMotion, Group, InitialVelocity, LoadItem
 from .errors import CaseError, KeyPath, _nearest_line
 from .materials import Material
 from .output import Output
@@ -36,6 +36,7 @@ class Case(_Node):
     boundary: list[BoundaryItem] = []
     initial: list[InitialVelocity] = []
     loads: list[LoadItem] = []
+    ground_motion: Optional[GroundMotion] = None
     cuts: list[Cut] = []
     contact: Optional[Contact] = None
     solver: Solver

@@ -26,8 +26,7 @@ import math
 
 import numpy as np
 
-#: g [m/s²] (the standard gravity, CGPM 1901) for records given in g
-G = 9.80665
+from ..records import G, read_record  # noqa: F401  (the command reads records)
 
 
 def step_matrices(period: float, zeta: float, dt: float):
@@ -138,37 +137,6 @@ def _even_step(t) -> float:
         raise ValueError("the record's times are not evenly spaced (resample it to one step "
                          f"first; steps from {d.min():.6g} to {d.max():.6g} s)")
     return dt
-
-
-def read_record(path, *, dt=None, units="m/s2", scale=1.0, columns=(0, 1), skip=0):
-    """A ground-motion record from a text file (CSV or whitespace columns,
-    `#` comments): (t [s], a_g [m/s²]).  Two columns by default, time and
-    acceleration (`columns`: their indices); with `dt` one column of
-    accelerations at that step (`columns[1]` picks it).  `units`: m/s2 or g;
-    `scale` multiplies the record (after the units); `skip` header lines."""
-    text = open(path, encoding="utf-8").read().replace(",", " ").splitlines()[skip:]
-    rows = [r.split("#", 1)[0].split() for r in text]
-    rows = [r for r in rows if r]
-    try:
-        data = [[float(x) for x in r] for r in rows]
-    except ValueError as exc:
-        raise ValueError(f"{path}: a line that is not numbers ({exc}); give skip= "
-                         "(--skip N) for header lines") from None
-    width = min(len(r) for r in data) if data else 0
-    if dt is None:
-        if width < 2:
-            raise ValueError(f"{path}: one column: give its step (--dt SECONDS)")
-        ct, ca = columns
-        arr = np.array([[r[ct], r[ca]] for r in data])
-        t, a = arr[:, 0], arr[:, 1]
-    else:
-        if not dt > 0:
-            raise ValueError(f"--dt {dt!r}: a positive step [s]")
-        a = np.array([r[min(columns[1], len(r) - 1)] if width > 1 else r[0] for r in data])
-        t = dt * np.arange(len(a))
-    if units not in ("m/s2", "g"):
-        raise ValueError(f"units {units!r}: m/s2 or g")
-    return t, a * (G if units == "g" else 1.0) * scale
 
 
 def probe_acceleration(history, name):

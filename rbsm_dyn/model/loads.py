@@ -146,8 +146,76 @@ def constraints(case, mesh, groups, hist, notes):
                 dof_kind[ids, c] = kind
                 dof_value[ids, c] = vec[c]
                 dof_hist[ids, c] = h
+    if case.ground_motion is not None:
+        _ground_motion(case, hist, dof_kind, dof_value, dof_hist, dof_item)
     _shared_bodies(dof_item, notes)
     return dof_kind, dof_value, dof_hist
+
+
+def _ground_motion(case, hist, dof_kind, dof_value, dof_hist, dof_item):
+    """`ground_motion`: the components along its direction that the
+    `{group, fix}` supports hold become prescribed velocities, the ground's
+    velocity v_g(t) (records.integrate: exact for the record linear between
+    its samples, at four points a step, linear between them) times the
+    direction's component; the rest stays fixed.  A velocity, not the
+    displacement: a table of displacements would make the velocity jump at
+    each of its points and the constraint's work of those jumps (½ m Δv²
+    each) would not be the kinetic energy it gives (2 % of the work on a
+    one-degree-of-freedom oscillator); the displacement is the velocity's
+    midpoint-rule integral, within (dt²/24) max|ȧ_g| of d_g.  A support by springs to the ground
+    ({face | surface, fix}) and the contact ground do not move yet: refused,
+    naming the item."""
+    from pathlib import Path
+    from ..case import _case_dir
+    from ..case.boundary import FaceSupport, GroupFix
+    from ..records import integrate, read_record
+    gm = case.ground_motion
+    at = ("ground_motion",)
+    if case.solver.mode != "dynamic":
+        raise case.error(at, "a ground motion needs solver.mode: dynamic")
+    items = list(case.boundary or [])
+    for j, item in enumerate(items):
+        if isinstance(item, FaceSupport):
+            raise case.error(("boundary", j), "this support by springs to the ground "
+                             "({face | surface, fix}) does not move with ground_motion yet: "
+                             "hold the base cells as a group, {group: base, fix: all}")
+    if case.contact is not None and getattr(case.contact, "ground", None) is not None:
+        raise case.error(("contact", "ground"), "the contact ground does not move with "
+                         "ground_motion yet: make the ground a group of cells held by "
+                         "{group, fix}")
+    direction = np.asarray(gm.direction, dtype=float)
+    norm = float(np.linalg.norm(direction))
+    if norm == 0.0:
+        raise case.error(at + ("direction",), "a nonzero vector: the ground's direction")
+    if case.plane is not None and direction[2] != 0.0:
+        raise case.error(at + ("direction",), "in a plane case the ground moves in the "
+                         "plane: [x, y]")
+    direction = direction / norm
+    path = Path(gm.file)
+    if not path.is_absolute():
+        path = _case_dir(case) / path
+    try:
+        t, a = read_record(path, dt=gm.dt, units=gm.units, scale=gm.scale,
+                           columns=tuple(gm.columns), skip=gm.skip)
+        (tf, _, vf, _), _ = integrate(t, a, baseline=gm.baseline)
+    except (OSError, ValueError, IndexError) as exc:
+        raise case.error(at + ("file",), f"{path}: {exc}") from None
+    if len(t) < 2 or np.any(np.diff(t) <= 0.0):
+        raise case.error(at + ("file",), f"{path}: the times must increase")
+    h = hist.add(np.column_stack([tf, vf]))
+    fixes = [j for j, item in enumerate(items) if isinstance(item, GroupFix)]
+    moved = 0
+    for c in range(3):
+        if direction[c] == 0.0:
+            continue
+        rows = np.isin(dof_item[:, c], fixes) & (dof_kind[:, c] == FIXED)
+        dof_kind[rows, c] = VELOCITY
+        dof_value[rows, c] = direction[c]
+        dof_hist[rows, c] = h
+        moved += int(rows.sum())
+    if moved == 0:
+        raise case.error(at, "no {group, fix} support holds a component along its "
+                         "direction: nothing would move with the ground")
 
 
 def _shared_bodies(dof_item, notes):
