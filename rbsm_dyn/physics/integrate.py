@@ -43,18 +43,28 @@ FREE, FIXED, VELOCITY, DISPLACEMENT = 0, 1, 2, 3
 @nb.njit(**JIT)
 def amplitude(h, t, hist_ptr, hist_t, hist_a):
     """Piecewise-linear amplitude of table h at time t (constant 1 if h < 0,
-    held constant outside the table)."""
+    held constant outside the table).  The segment by bisection: a ground
+    motion's table has four points a record step (tens of thousands), and a
+    scan from its start cost each prescribed component up to that many
+    comparisons a step."""
     if h < 0:
         return 1.0
     i0 = hist_ptr[h]
     i1 = hist_ptr[h + 1]
     if t <= hist_t[i0]:
         return hist_a[i0]
-    for i in range(i0 + 1, i1):
-        if t <= hist_t[i]:
-            w = (t - hist_t[i - 1]) / (hist_t[i] - hist_t[i - 1])
-            return hist_a[i - 1] + w * (hist_a[i] - hist_a[i - 1])
-    return hist_a[i1 - 1]
+    if t > hist_t[i1 - 1]:
+        return hist_a[i1 - 1]
+    lo = i0          # hist_t[lo] < t <= hist_t[hi]: the first i with t <= hist_t[i] is hi
+    hi = i1 - 1
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if t <= hist_t[mid]:
+            hi = mid
+        else:
+            lo = mid
+    w = (t - hist_t[hi - 1]) / (hist_t[hi] - hist_t[hi - 1])
+    return hist_a[hi - 1] + w * (hist_a[hi] - hist_a[hi - 1])
 
 
 @nb.njit(inline="always", **JIT)
