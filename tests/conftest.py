@@ -9,9 +9,9 @@ threads, which sets NUMBA_NUM_THREADS=2 for its runs).
 
 The suite runs in parallel workers (pytest-xdist, pyproject.toml addopts,
 `--dist loadgroup`): each test goes to whichever worker is free, except
-that the tests of a module with a module-scoped fixture (a shipped case
-run once for several tests) stay together in one worker, so that the
-fixture runs once (pytest_collection_modifyitems below).
+that the tests sharing a module-scoped fixture (a shipped case run once
+for several tests) stay together in one worker, so that the fixture runs
+once (pytest_collection_modifyitems below).
 
 The model cache (io/model_cache.py) is off for the suite, so that running
 the shipped cases writes nothing into cases/; test_model_cache.py turns it
@@ -73,16 +73,34 @@ def thread_states(tmp_path):
 
 @pytest.hookimpl(tryfirst=True)
 def pytest_collection_modifyitems(config, items):
-    """Group the tests that share a module-scoped fixture (xdist_group by
-    module), so that one worker runs them and the fixture once.  tryfirst:
-    pytest-xdist's own hook reads the marks into the node ids, and without
-    it ran first and saw none (the fixtures of test_case_answers ran on
-    both workers, about 9 min of the suite's CPU)."""
+    """Group the tests that share a module-scoped fixture (xdist_group), so
+    that one worker runs them and builds the fixture once: within a module,
+    the fixtures used together by a test join one group (connected
+    components), so that a module's independent fixtures (test_case_answers'
+    Brazilian disc and notched beam, each a full case run) can go to
+    different workers.  tryfirst: pytest-xdist's own hook reads the marks
+    into the node ids, and without it ran first and saw none (the fixtures
+    were built on both workers, about 9 min of the suite's CPU)."""
+    parent = {}
+
+    def find(k):
+        while parent.setdefault(k, k) != k:
+            k = parent[k]
+        return k
+
+    shared_of = {}
     for item in items:
         info = getattr(item, "_fixtureinfo", None)
         if info is None:
             continue
-        shared = any(fd.scope in ("module", "package", "class")
-                     for defs in info.name2fixturedefs.values() for fd in defs)
-        if shared:
-            item.add_marker(pytest.mark.xdist_group(item.module.__name__))
+        names = sorted(name for name, defs in info.name2fixturedefs.items()
+                       if any(fd.scope in ("module", "package", "class") for fd in defs))
+        if not names:
+            continue
+        keys = [(item.module.__name__, n) for n in names]
+        for k in keys[1:]:
+            parent[find(k)] = find(keys[0])
+        shared_of[item] = keys[0]
+    for item, key in shared_of.items():
+        root = find(key)
+        item.add_marker(pytest.mark.xdist_group(f"{root[0]}:{root[1]}"))
