@@ -7,7 +7,8 @@ first call (Numba compile or cache load) are timed and reported apart.
 Physics:
   elastic  linear springs (the elastic kernel);
   plastic  von Mises yield at a stress the motion reaches (inelastic kernel);
-  full     yield, softening rupture and Coulomb contact on broken faces.
+  full     yield, softening rupture and Coulomb contact on broken faces;
+  viscous  linear springs with two Maxwell branches (physics/viscous.py).
 --poisson sets the steel's ν (default 0.2; above 0.25 the calibrated rule
 adds the Poisson correction's auxiliary stress pass, physics/poisson.py).
 Ends with one line (the contract of issue 5):
@@ -43,6 +44,8 @@ LAWS = {
     "plastic": (", yield: {criterion: von_mises, stress: 2.0e6}", -20.0),
     "full": (", yield: {criterion: von_mises, stress: 2.0e6}, "
              "rupture: {fracture_energy: 0.5, tensile_strength: 5.0e5}, friction: 0.5", -20.0),
+    "viscous": (", viscoelastic: {kind: prony, terms: [[5.0e10, 1.0e-5], [5.0e10, 1.0e-4]]}",
+                -1.0),
 }
 
 

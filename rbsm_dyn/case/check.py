@@ -112,6 +112,42 @@ def _mesh_kinds(case, material):
     return {case.mesh.kind} if case.mesh is not None else set()
 
 
+def _check_viscoelastic(case: Case, path: KeyPath, mat) -> None:
+    """The keys of a material's viscoelastic law and what it combines with."""
+    err = case.error
+    v, vp = mat.viscoelastic, path + ("viscoelastic",)
+    need = {"kelvin": ("tau",), "maxwell": ("tau",), "standard": ("tau", "relaxed"),
+            "prony": ("terms",)}[v.kind]
+    for key in need:
+        if getattr(v, key) is None:
+            raise err(vp + (key,), f"required key missing (kind {v.kind})")
+    for key in ("tau", "relaxed", "terms"):
+        if key not in need and v.given(key):
+            raise err(vp + (key,), f"not used with kind {v.kind}")
+    if v.kind == "standard" and not v.relaxed < mat.young:
+        raise err(vp + ("relaxed",), f"the relaxed modulus must be below young = "
+                  f"{_show(mat.young)} Pa, the instantaneous one (got {_show(v.relaxed)})")
+    if v.kind == "prony":
+        if not v.terms:
+            raise err(vp + ("terms",), "give at least one term [E_i, tau_i]")
+        for i, (e, tau) in enumerate(v.terms):
+            if not (e > 0 and tau > 0):
+                raise err(vp + ("terms", i), f"E_i [Pa] and tau_i [s] must be > 0 "
+                          f"(got {_show(e)}, {_show(tau)})")
+        total = sum(e for e, _ in v.terms)
+        if total > mat.young:
+            raise err(vp + ("terms",), f"the terms' moduli sum to {_show(total)} Pa, above "
+                      f"young = {_show(mat.young)} Pa (the instantaneous modulus; the "
+                      "long-term one, young − Σ E_i, must not be negative)")
+    if v.kind != "kelvin":
+        for key, given in (("yield", mat.yield_), ("rupture", mat.rupture)):
+            if given is not None:
+                raise err(vp + ("kind",), f"kind {v.kind} does not combine with {key}: the "
+                          f"springs judge {key} on the instantaneous force E δ, not on the "
+                          "relaxed force of the Maxwell branches (kind kelvin, a dashpot "
+                          "beside the spring, does combine)")
+
+
 def _check(case: Case) -> None:
     """Rules across fields.  Raises the first CaseError found."""
     err = case.error
@@ -240,6 +276,8 @@ def _check(case: Case) -> None:
                 raise err(yp + ("model",), "continuum yield is for block meshes (mesh.kind "
                           "blocks): on Voronoi cells it hardens, about +50 % over ten yield "
                           "strains of pure shear (issue 27; docs/theory.md, Yield)")
+        if mat.viscoelastic is not None:
+            _check_viscoelastic(case, path, mat)
         r = mat.rupture
         if r is not None:
             rp = path + ("rupture",)
@@ -369,6 +407,19 @@ def _check(case: Case) -> None:
     if case.ground_motion is not None and s.mode != "dynamic":
         raise err(("ground_motion",), f"a ground motion needs solver.mode dynamic (got {s.mode}): "
                   "a record is a history in time")
+    visco = [n for n, m in case.materials.items() if m.viscoelastic is not None]
+    if visco and s.mode == "static":
+        raise err(("materials", visco[0], "viscoelastic"), "a viscoelastic material needs "
+                  "solver.mode dynamic (a static run in time, for creep, is not built yet; "
+                  "modes linear and modal use the instantaneous modulus young)")
+    d = s.damping
+    if d.rayleigh is not None:
+        dp = ("solver", "damping")
+        check_only(d, ["alpha", "beta"], dp, "with rayleigh (it gives both)")
+        f1, f2 = d.rayleigh.frequencies
+        if not (f1 > 0 and f2 > 0 and f1 != f2):
+            raise err(dp + ("rayleigh", "frequencies"), f"two different positive frequencies "
+                      f"[Hz] (got {_show(f1)}, {_show(f2)})")
     if s.mode == "static" and not s.given("method"):
         s.method = default_static_method(case)
         s._method_default = True

@@ -2,11 +2,11 @@
 criterion and its ``rupture``."""
 from __future__ import annotations
 
-from typing import Literal, Optional
+from typing import Annotated, Literal, Optional
 
 from pydantic import Field
 
-from .base import _Node
+from .base import _Node, _length
 
 
 class Yield(_Node):
@@ -37,6 +37,19 @@ class Rupture(_Node):
     values: Literal["material", "spring"] = "material"
 
 
+class Viscoelastic(_Node):
+    """Time in the springs (physics/viscous.py); ``young`` is the
+    instantaneous modulus E.  ``kind``: ``kelvin`` (σ = E (ε + τ ε̇), the
+    retardation time ``tau`` [s]), ``maxwell`` (E(t) = E e^(−t/τ)),
+    ``standard`` (the standard linear solid: E(t) = E∞ + (E − E∞) e^(−t/τ),
+    ``relaxed`` = E∞ [Pa]) or ``prony`` (E(t) = E − Σ E_i (1 − e^(−t/τ_i)),
+    ``terms`` [[E_i, τ_i], ...] in [Pa, s], E∞ = E − Σ E_i ≥ 0)."""
+    kind: Literal["kelvin", "maxwell", "standard", "prony"]
+    tau: Optional[float] = Field(default=None, gt=0)
+    relaxed: Optional[float] = Field(default=None, ge=0)
+    terms: Optional[list[Annotated[list[float], _length(2, "[E_i, tau_i]")]]] = None
+
+
 class Material(_Node):
     density: float = Field(gt=0)
     young: float = Field(gt=0)
@@ -45,3 +58,4 @@ class Material(_Node):
     yield_: Optional[Yield] = Field(default=None, alias="yield")
     rupture: Optional[Rupture] = None
     friction: Optional[float] = Field(default=None, ge=0)
+    viscoelastic: Optional[Viscoelastic] = None

@@ -2,21 +2,43 @@
 damping and indirect displacement control."""
 from __future__ import annotations
 
-from typing import Literal, Optional
+import math
+from typing import Annotated, Literal, Optional
 
 from pydantic import Field, PrivateAttr
 
-from .base import _Node
+from .base import _Node, _length
+
+
+class Rayleigh(_Node):
+    """Rayleigh damping α M + β K from a damping ratio ``ratio`` at two
+    frequencies ``frequencies`` [Hz] (Chopra, Dynamics of Structures,
+    eq. 11.4.9)."""
+    ratio: float = Field(gt=0, lt=1)
+    frequencies: Annotated[list[float], _length(2, "[f1, f2]")]
 
 
 class Damping(_Node):
-    """Mass-proportional damping ``alpha`` [1/s]; Cundall's local
+    """Mass-proportional damping ``alpha`` [1/s]; stiffness-proportional
+    ``beta`` [s] (a dashpot β k on every intact spring, physics/viscous.py)
+    or both from ``rayleigh: {ratio, frequencies}``; Cundall's local
     non-viscous damping ``local`` = β in [0, 1) (the force against each
     body's motion, β × the unbalanced force): set, it makes the run a
     quasi-static explicit one (the kinetic-to-strain energy ratio is
     recorded and checked; docs/case_file.md, "Quasi-static explicit runs")."""
     alpha: float = Field(default=0.0, ge=0)
+    beta: float = Field(default=0.0, ge=0)
+    rayleigh: Optional[Rayleigh] = None
     local: float = Field(default=0.0, ge=0, lt=1)
+
+    def coefficients(self):
+        """(α [1/s], β [s]): the keys' or those of ``rayleigh`` (equal
+        ratio ζ at ω1, ω2: α = 2ζ ω1ω2/(ω1 + ω2), β = 2ζ/(ω1 + ω2))."""
+        if self.rayleigh is None:
+            return float(self.alpha), float(self.beta)
+        w1, w2 = (2.0 * math.pi * f for f in self.rayleigh.frequencies)
+        z = self.rayleigh.ratio
+        return 2.0 * z * w1 * w2 / (w1 + w2), 2.0 * z / (w1 + w2)
 
 
 class Control(_Node):

@@ -180,7 +180,8 @@ class History:
     def energy_balance(self) -> dict:
         """Energy balance of the run (solvers/output.py), each (T,) [J]:
         ``stored`` = kinetic + strain, ``dissipated`` = damping + plastic +
-        fracture (+ contact_friction), ``supplied`` = kinetic(0) + strain(0) + external_work, and
+        fracture (+ contact_friction, + viscous), ``supplied`` = kinetic(0) +
+        strain(0) + external_work, and
         ``error`` = stored + dissipated - supplied (0 for an exact balance).
         Missing observables count as 0."""
         o = self.observables
@@ -191,7 +192,7 @@ class History:
 
         stored = get("kinetic") + get("strain")
         dissipated = (get("damping") + get("plastic") + get("fracture")
-                      + get("contact_friction"))
+                      + get("contact_friction") + get("viscous"))
         o0 = self.observables0
         e0 = float(o0.get("kinetic", 0.0)) + float(o0.get("strain", 0.0))
         supplied = e0 + get("external_work")

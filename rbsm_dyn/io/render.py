@@ -527,7 +527,7 @@ def render(path, *, frame: int = -1, out=None, scale: float | None = None,
 # ------------------------------------------------------------------ plot
 ENERGIES = (("kinetic", "kinetic"), ("strain", "strain"), ("plastic", "plastic"),
             ("fracture", "fracture"), ("damping", "damping"),
-            ("contact_friction", "contact friction"),
+            ("contact_friction", "contact friction"), ("viscous", "viscous"),
             ("external_work", "external work"))
 #: the y label of an observable's own panel where its name alone misleads:
 #: n_broken counts spring points (a face has several; `render` counts faces)
@@ -614,7 +614,7 @@ def read_observables(path, names, *, chunk=PLOT_CHUNK, points=PLOT_POINTS):
                 e0 = float(get("kinetic")[0] + get("strain")[0]) if z > a else 0.0
             supplied = e0 + get("external_work")
             error = (get("kinetic") + get("strain") + get("damping") + get("plastic")
-                     + get("fracture") + get("contact_friction") - supplied)
+                     + get("fracture") + get("contact_friction") + get("viscous") - supplied)
             big_err = max(big_err, float(np.max(np.abs(error), initial=0.0)))
             big_sup = max(big_sup, float(np.max(np.abs(supplied), initial=0.0)))
             vals["error"] = error

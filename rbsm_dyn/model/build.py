@@ -14,7 +14,7 @@ from ..physics.poisson import build_poisson, empty_poisson
 from ..physics.rotation import matrix_to_quat, quat_matrix_np
 from .contact import build_contact, contact_setting
 from .core import IDX, Model
-from .laws import body_materials, law_slots
+from .laws import body_materials, law_slots, viscous_laws
 from .loads import Amplitudes, body_groups, body_loads, constraints, interface_notes
 from .mesh_build import build_mesh
 from .springs import face_table, internal_springs, spring_arms, support_springs
@@ -44,7 +44,9 @@ def build_model(case, mesh=None):
     fext, mext, ffol, mfol, load_hist, gravity = body_loads(case, mesh, groups, rot0, hist)
     poisson = _poisson(case, mesh, rot0, body_rigid, body_material, laws, spring_face,
                        springs["spring_state0"])
+    dashpot, branch_g, branch_tau = viscous_laws(case, laws.visc_rows)
     model = Model(
+        law_dashpot=dashpot, law_branch_g=branch_g, law_branch_tau=branch_tau,
         poisson=poisson, warnings=tuple(notes), **bodies, **springs,
         dof_kind=dof_kind, dof_value=dof_value, dof_hist=dof_hist,
         body_fext=fext, body_mext=mext, body_ffol=ffol, body_mfol=mfol,

@@ -121,6 +121,23 @@ class Model:
     # and each cell's shear strength k [Pa] and 2G [Pa] (build.py _yield_field)
     cell_k: np.ndarray = field(default_factory=lambda: np.zeros(0))
     cell_2g: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    # viscous springs (physics/viscous.py; length 0 without them): per law
+    # row the dashpot time τ_d (L,) [s] (Kelvin's τ + Rayleigh's β) and the
+    # Maxwell branches' shares g (L, M) of the instantaneous modulus and
+    # times τ (L, M) [s] (laws.py viscous_laws)
+    law_dashpot: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    law_branch_g: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    law_branch_tau: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+
+    @property
+    def viscous(self):
+        """True when the viscous-spring pass runs (physics/viscous.py)."""
+        return self.law_dashpot.size > 0
+
+    @property
+    def n_branches(self):
+        """Maxwell branches per spring point (physics/viscous.py)."""
+        return self.law_branch_g.shape[1] if self.viscous else 0
 
     @property
     def poisson_on(self):
@@ -193,7 +210,16 @@ class Model:
         blocks, Voronoi and sliver meshes (tests/test_linear_modal.py,
         tests/test_stability.py); refined by omega_max_bound's sweeps."""
         lam = omega_max_bound(self)
-        return np.inf if lam <= 0 else 2.0 / np.sqrt(lam)
+        dt = np.inf if lam <= 0 else 2.0 / np.sqrt(lam)
+        if self.viscous and np.isfinite(dt):
+            # a dashpot τ_d k on the springs: the central difference is
+            # stable for ω dt ≤ 2 (√(1 + ζ²) − ζ), ζ = τ_d ω/2 at ω_max
+            # (Belytschko, Liu & Moran, Nonlinear FE, §6.3, stability with
+            # damping; the same bound, by Jury's test, for the lagged rate
+            # δ̇_{n−1/2} of physics/viscous.py)
+            zeta = float(np.max(self.law_dashpot[np.unique(self.face_law)])) / dt
+            dt *= np.sqrt(1.0 + zeta * zeta) - zeta
+        return dt
 
 def _frame_normals(frame):
     """First column n of the rotation of each frame quaternion (S, 4) -> (S, 3)."""

@@ -70,6 +70,22 @@ def material_law_row(mat, mesh_kind="voronoi", cell_size=None):
     return row
 
 
+def viscous_row(mat):
+    """(τ_d [s], [(g_i, τ_i [s]), ...]) of a material (physics/viscous.py):
+    Kelvin's dashpot time and the Maxwell branches' shares g_i = E_i/E of
+    the instantaneous modulus E = young; None for an elastic material."""
+    v = getattr(mat, "viscoelastic", None)
+    if v is None:
+        return None
+    if v.kind == "kelvin":
+        return (v.tau, [])
+    if v.kind == "maxwell":
+        return (0.0, [(1.0, v.tau)])
+    if v.kind == "standard":
+        return (0.0, [((mat.young - v.relaxed) / mat.young, v.tau)])
+    return (0.0, [(e / mat.young, tau) for e, tau in v.terms])
+
+
 def unbreakable(row):
     """The law row without rupture (supports and symmetry planes that do not
     break unless the case says `breakable: true`; yield stays)."""
@@ -107,10 +123,12 @@ class LawSlots:
     """The law table of a build (law_slots).  law_params (n_laws, N_PARAMS)
     (Model.law_params); n_slots K; body_slot (N,) the slot of each body;
     iface_row: the law_params row of each interface (−1: the weaker of its
-    two cells' laws); materials: Model.materials; e0, alpha, lam_aux (N,)
+    two cells' laws); visc_rows: each law row's viscous_row (None:
+    elastic); materials: Model.materials; e0, alpha, lam_aux (N,)
     each body's stiffness rule (calibration.py; a rigid part's e0 is
     infinite)."""
     law_params: np.ndarray
+    visc_rows: list
     n_slots: int
     body_slot: np.ndarray
     iface_row: list
@@ -118,6 +136,30 @@ class LawSlots:
     e0: np.ndarray
     alpha: np.ndarray
     lam_aux: np.ndarray
+
+
+def viscous_laws(case, visc_rows):
+    """(law_dashpot (L,) [s], law_branch_g (L, M), law_branch_tau (L, M) [s])
+    of the law rows (physics/viscous.py): Kelvin's dashpot time plus the
+    solver's Rayleigh β (mode dynamic) on every row; empty arrays (the
+    viscous pass off) when no row has either."""
+    beta = 0.0
+    if case.solver.mode == "dynamic":
+        beta = case.solver.damping.coefficients()[1]
+    if beta == 0.0 and all(r is None for r in visc_rows):
+        return np.zeros(0), np.zeros((0, 0)), np.zeros((0, 0))
+    n = len(visc_rows)
+    m = max((len(r[1]) for r in visc_rows if r is not None), default=0)
+    dashpot = np.full(n, beta)
+    g = np.zeros((n, m))
+    tau = np.ones((n, m))
+    for i, r in enumerate(visc_rows):
+        if r is None:
+            continue
+        dashpot[i] += r[0]
+        for j, (gi, ti) in enumerate(r[1]):
+            g[i, j], tau[i, j] = gi, ti
+    return dashpot, g, tau
 
 
 def law_slots(case, parts, body_part, body_material):
@@ -129,20 +171,23 @@ def law_slots(case, parts, body_part, body_material):
                                  return_inverse=True)
     body_slot = body_slot.reshape(-1)
     law_rows = [elastic_law_row()]
-    materials, slot_e0, slot_alpha, slot_lam = _slot_laws(case, parts, slots, law_rows)
+    visc_rows = [None]
+    materials, slot_e0, slot_alpha, slot_lam = _slot_laws(case, parts, slots, law_rows,
+                                                          visc_rows)
     n_slots = len(slots)
     # rows 1 + n_slots + k: slot k at unbreakable supports (yield, no rupture)
     for row in law_rows[1:1 + n_slots]:
         law_rows.append(unbreakable(row))
-    iface_row = _interface_laws(case, parts, law_rows)
+    visc_rows += visc_rows[1:1 + n_slots]
+    iface_row = _interface_laws(case, parts, law_rows, visc_rows)
     law_params = np.array(law_rows, dtype=float)
-    return LawSlots(law_params=law_params, n_slots=n_slots, body_slot=body_slot,
+    return LawSlots(law_params=law_params, visc_rows=visc_rows, n_slots=n_slots, body_slot=body_slot,
                     iface_row=iface_row, materials=materials,
                     e0=np.array(slot_e0)[body_slot], alpha=np.array(slot_alpha)[body_slot],
                     lam_aux=np.array(slot_lam)[body_slot])
 
 
-def _slot_laws(case, parts, slots, law_rows):
+def _slot_laws(case, parts, slots, law_rows, visc_rows):
     """Law rows (appended to law_rows) and stiffness rules of the law slots; Model.materials."""
     n_parts = len(parts)
     mat_names = list(case.materials)
@@ -176,6 +221,7 @@ def _slot_laws(case, parts, slots, law_rows):
         slot_lam.append(lam_aux)
         law_rows.append(material_law_row(mat, kind if case.plane is None else "plane_" + kind,
                                          part_cell_size(case, ref)))
+        visc_rows.append(viscous_row(mat))
     for j, name in enumerate(mat_names):
         if materials[j] is None:        # a material no body uses
             mat = case.materials[name]
@@ -184,7 +230,7 @@ def _slot_laws(case, parts, slots, law_rows):
     return materials, slot_e0, slot_alpha, slot_lam
 
 
-def _interface_laws(case, parts, law_rows):
+def _interface_laws(case, parts, law_rows, visc_rows):
     """Law rows of the interfaces (appended to law_rows); each interface's row or −1."""
     # rows of the interfaces: bonded with a material of its own, or contact
     iface_row = []
@@ -202,4 +248,6 @@ def _interface_laws(case, parts, law_rows):
         iface_row.append(-1 if row is None else len(law_rows))
         if row is not None:
             law_rows.append(row)
+            visc_rows.append(viscous_row(case.materials[it.material])
+                             if it.law != "contact" and it.material is not None else None)
     return iface_row

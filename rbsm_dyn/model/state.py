@@ -37,6 +37,10 @@ class State:
     cell_moment (N+1, 6) [N m] scratch, cell_sigma (N+1, 6) [Pa] each
     cell's stress at the last spring pass, cell_dep (N+1, 6) its plastic
     strain increment for the next pass (checkpointed: cell_sigma, cell_dep).
+    Viscous springs (length 0 unless Model.viscous, physics/viscous.py):
+    spring_gap (S, 3) [m] the local gap of the last viscous pass,
+    spring_q (S, M, 3) [N] the Maxwell branches' forces, spring_fv (S, 3)
+    [N] the viscous force of the last pass, spring_wv (S,) [J] its work.
     Poisson correction scratch (length 0 unless Model.poisson_on; not
     saved by checkpoints): aux_g (n_slots, 3) [1/m], aux_p (7, N)
     (physics/poisson.py poisson_pass)."""
@@ -63,6 +67,10 @@ class State:
     cell_moment: np.ndarray = None
     cell_sigma: np.ndarray = None
     cell_dep: np.ndarray = None
+    spring_gap: np.ndarray = None
+    spring_q: np.ndarray = None
+    spring_fv: np.ndarray = None
+    spring_wv: np.ndarray = None
     aux_g: np.ndarray = None
     aux_p: np.ndarray = None
     body_theta: np.ndarray = None
@@ -102,6 +110,11 @@ def new_state(model):
     ci = n if (si and on) else 0
     st.cell_chi = np.ones(ci)      # no link is damaged at the start (cuts are no links)
     st.cell_wf = np.zeros(ci)
+    sv = s if model.viscous else 0
+    st.spring_gap = np.zeros((sv, 3))
+    st.spring_q = np.zeros((sv, model.n_branches, 3))
+    st.spring_fv = np.zeros((sv, 3))
+    st.spring_wv = np.zeros(sv)
     npl = n + 1 if model.plane else 0
     st.body_theta = np.zeros(npl)
     st.body_omega = np.zeros(npl)

@@ -67,6 +67,12 @@ Features (None when a scene does not use them: the pass is not compiled)
                  (4,) the plane n·x ≤ d; mu [1], kfac [1], zeta [1];
                  scratch (threads, rows, 3); overwrite (no springs)
   Stepping       dt [s], damping_alpha [1/s], damping_local [1]
+  ViscousSprings viscous springs (physics/viscous.py): per law row the
+                 dashpot time law_dashpot (L,) [s] and the Maxwell
+                 branches' shares law_g and step factors law_a, law_b
+                 (L, M); per spring point spring_gap (S, 3) [m], spring_q
+                 (S, M, 3) [N], spring_fv (S, 3) [N], spring_wv (S,) [J];
+                 spring_state (the history's, or length 0); inv_dt [1/s]
   Relaxation     dynamic relaxation's fictitious masses and iteration arrays
 
 Options: which passes a run compiles and calls, chosen once per run in
@@ -222,6 +228,30 @@ class ContactArrays(NamedTuple):
     zeta: float
     scratch: np.ndarray
     overwrite: bool
+
+
+class ViscousSprings(NamedTuple):
+    """Viscous springs (physics/viscous.py).  Per law row: law_dashpot (L,)
+    [s] the dashpot's time τ_d (Kelvin's retardation time plus Rayleigh's
+    β: the dashpot force τ_d k δ̇); law_g (L, M) the Maxwell branches'
+    share g_i = E_i/E of the instantaneous modulus (0: no branch), law_a,
+    law_b (L, M) their exact step factors exp(−dt/τ_i) and τ_i (1 − a)/dt
+    for the run's dt.  State per spring point: spring_state (the inelastic
+    history's, or length 0: a broken spring carries no viscous force);
+    spring_gap (S, 3) [m] the local gap (n, s, t) of the last pass;
+    spring_q (S, M, 3) [N] the branches' forces; spring_fv (S, 3) [N] the
+    viscous force of the last pass (local); spring_wv (S,) [J] its work so
+    far; inv_dt [1/s]."""
+    law_dashpot: np.ndarray
+    law_g: np.ndarray
+    law_a: np.ndarray
+    law_b: np.ndarray
+    spring_state: np.ndarray
+    spring_gap: np.ndarray
+    spring_q: np.ndarray
+    spring_fv: np.ndarray
+    spring_wv: np.ndarray
+    inv_dt: float
 
 
 class Relaxation(NamedTuple):

@@ -33,6 +33,7 @@ from .arrays import flag
 from .collide import contact_step
 from .passes import spring_forces
 from .springs import part_range
+from .viscous import viscous_pass
 from ..partition import PARTS
 
 JIT = dict(cache=True, nogil=True, fastmath={"contract"}, error_model="numpy")
@@ -196,7 +197,10 @@ def _translate(i, t, dt, keep, dt_c, damping_alpha, damping_local, follow, local
             # force the constraint adds so that m a = f + r
             r = m * (v_new - v_old) / dt - f
             reaction = body_support[i, k] + r
-            work += r * v_new * dt
+            # its work: the kinetic energy it gives, m Δv v̄, less the
+            # springs' share f v_new dt (booked as their energy); r v_new dt
+            # would book ½ m Δv² too much at each jump of the velocity
+            work += r * v_new * dt - 0.5 * m * (v_new - v_old) * (v_new - v_old)
         va = 0.5 * (v_old + v_new)
         work += fext * v_new * dt + ffol * va * dt
         damp += damping_alpha * m * va * va * dt - fd * va * dt
@@ -363,7 +367,7 @@ def dynamic_body_pass(t, stepping, bodies, loads, bs, parallel):
 
 @nb.njit(**JIT)
 def run_dynamic(n_steps, step0, stepping, bodies, springs, loads, bs, hist, aux, contact,
-                parallel):
+                visc, parallel):
     """Advance n_steps explicit steps inside compiled code; returns the
     step count after them.  The step is this list of passes, each chosen
     once per run (solvers/passes.py Options; a container that is None
@@ -376,6 +380,8 @@ def run_dynamic(n_steps, step0, stepping, bodies, springs, loads, bs, hist, aux,
         aux stress   the Poisson correction (aux: PoissonSlots, or None)
         contact      contact between any cells (contact: ContactArrays, or
                      None; contact.overwrite: no springs clear the wrenches)
+        viscous      dashpots and Maxwell branches of the springs (visc:
+                     ViscousSprings, or None; physics/viscous.py)
         bodies       kick v, L with the forces at t_n, drift x, rotate q
 
     `parallel` None: every pass on one thread (small models)."""
@@ -389,6 +395,8 @@ def run_dynamic(n_steps, step0, stepping, bodies, springs, loads, bs, hist, aux,
         spring_forces(springs, bs, hist, aux, False, True, parallel)
         if contact is not None:
             contact_step(contact, bodies, bs, stepping.dt, yes)
+        if visc is not None:
+            viscous_pass(springs, bs, visc, False, parallel)
         dynamic_body_pass(t, stepping, bodies, loads, bs, parallel)
     return step0 + n_steps
 

@@ -31,11 +31,12 @@ from ..physics.collide import contact_step
 from ..physics.integrate import run_dynamic, synchronized_momenta
 from ..physics.passes import spring_forces
 from ..physics.plane import run_plane
+from ..physics.viscous import viscous_pass
 from ..case import DT_SAFETY_MAX
 from .plane import lift, plane_arrays, plane_ready, plane_state
 from .checkpoint import Checkpointer, Interrupted, SignalGuard
-from .passes import (Options, aux_stress, body_state, contact_arrays, history, model_arrays,
-                     parallel_arg)
+from .passes import (VISCOUS_STATE, Options, aux_stress, body_state, contact_arrays, history,
+                     model_arrays, parallel_arg, viscous_springs)
 
 
 
@@ -90,6 +91,13 @@ def spring_pass(model, state, substep=False):
         contact_step(contact_arrays(m, cs), bodies, bs, state.dt, False)
         trial = {} if trial is None else trial
         trial["contact"] = cs
+    if opt.viscous:
+        # on copies, as the spring history: the viscous forces and work at
+        # these positions (the step from here commits its own)
+        visc = viscous_springs(m, state, opt, copy=True)
+        viscous_pass(springs, bs, visc, True, parallel_arg(opt))
+        trial = {} if trial is None else trial
+        trial.update({f: getattr(visc, f) for f in VISCOUS_STATE})
     return trial
 
 
@@ -162,7 +170,7 @@ def advance(model, state, n_steps, damping_alpha=0.0, damping_local=0.0, options
         n_steps, state.step, Stepping(float(state.dt), float(damping_alpha),
                                       float(damping_local)),
         bodies, springs, loads, body_state(state), history(state, opt),
-        aux_stress(m, state, opt), contact, parallel_arg(opt))
+        aux_stress(m, state, opt), contact, viscous_springs(m, state, opt), parallel_arg(opt))
 
 
 def synchronize(model, state, trial=None):
@@ -264,7 +272,8 @@ def run(case, model, recorder, *, max_steps=None, progress=None, chunk_steps=Non
         state = restart[0]
         dt, est = state.dt, model.stable_dt()
     damping = getattr(case.solver, "damping", None)
-    alpha = float(getattr(damping, "alpha", 0.0) or 0.0)
+    # α of the keys or of rayleigh (β is the springs' dashpot: the model's)
+    alpha = float(damping.coefficients()[0]) if damping is not None else 0.0
     local = float(getattr(damping, "local", 0.0) or 0.0)
     end_time = case.solver.end_time
     n_total = int(np.ceil(end_time / dt - 1e-9))
@@ -301,7 +310,7 @@ def run(case, model, recorder, *, max_steps=None, progress=None, chunk_steps=Non
 
     def energy_runaway(obs, e0):
         """None, or why the run has diverged: the energy held and dissipated
-        (kinetic + strain + plastic + fracture + damping) equals E0 + W in a
+        (kinetic + strain + plastic + fracture + damping + viscous) equals E0 + W in a
         sane run; more than ENERGY_TOLERANCE × the largest E0 + |W| so far
         (+ floor) is an instability, whatever absorbs it (module constants).
         The largest so far: W can return to 0 (a block bouncing under
@@ -311,11 +320,12 @@ def run(case, model, recorder, *, max_steps=None, progress=None, chunk_steps=Non
         supplied = most[0]
         parts = {k: float(obs.get(k, 0.0)) for k in
                  ("kinetic", "strain", "plastic", "fracture", "damping",
-                  "contact_friction")}
+                  "contact_friction", "viscous")}
         total = sum(parts.values())
         if total <= ENERGY_TOLERANCE * supplied + e_floor:
             return None
-        return (f"kinetic + strain + plastic + fracture + damping (+ contact friction) "
+        return (f"kinetic + strain + plastic + fracture + damping (+ contact friction, "
+                f"viscous) "
                 f"energy {total:.4g} J "
                 f"({', '.join(f'{k} {v:.4g}' for k, v in parts.items())}) exceeds "
                 f"{ENERGY_TOLERANCE:g}× the initial energy plus |external work| "

@@ -256,6 +256,25 @@ def surface_load_levers(case, model):
     return np.concatenate(cells), np.concatenate(terms)
 
 
+def viscous_energies(m, state):
+    """(stored, dissipated) [J] of the viscous springs (physics/viscous.py):
+    the Maxwell branches hold Σ q²/(2 g k) − ½ g k δ² beyond the spring
+    pass's ½ k δ² (intact springs); the rest of the viscous forces' work
+    spring_wv is dissipated."""
+    work = float(np.sum(state.spring_wv))
+    if m.n_branches == 0 or len(state.spring_q) == 0:
+        return 0.0, work
+    kg = m.law_branch_g[m.spring_law][:, :, None] * m.spring_k[:, None, :]     # (S, M, 3)
+    d = state.spring_gap[:, None, :]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        e = np.where(kg > 0.0, 0.5 * state.spring_q ** 2 / kg - 0.5 * kg * d * d, 0.0)
+    e = e.sum(axis=(1, 2))
+    if len(state.spring_state):
+        e = np.where(state.spring_state < BROKEN, e, 0.0)
+    stored = float(np.sum(e))
+    return stored, work - stored
+
+
 def strain_energy_of(m, state):
     """Energy held by the springs of model m in `state` [J]
     (physics/inelastic.strain_energy; the Poisson pass's apart)."""
@@ -341,6 +360,8 @@ class Recorder:
                             "n_broken": "1", "crack_area": "m2"}
         if m.contact is not None:
             self.observables["contact_friction"] = "J"
+        if m.viscous:
+            self.observables["viscous"] = "J"
         self.observables.update(dict(extra_observables))
         for name, unit in self.observables.items():
             w.add_series(f"observables/{name}", (), "f8", unit)
@@ -370,6 +391,8 @@ class Recorder:
                             "n_broken": "1", "crack_area": "m2"}
         if model.contact is not None:
             self.observables["contact_friction"] = "J"
+        if model.viscous:
+            self.observables["viscous"] = "J"
         self.observables.update(dict(extra_observables))
         self.writer = HistoryWriter.reopen(path, frames=frames, lock=lock)
         self.writer.set_buffering(**frame_buffer(case))
@@ -391,6 +414,8 @@ class Recorder:
             # the contacts' elastic energy at these positions (the pass that
             # synchronised this frame, explicit.spring_pass)
             u += float(np.sum(state.contact.out[:, O_E]))
+        if m.viscous:
+            u += viscous_energies(m, state)[0]
         return u
 
     def spring_observables(self, state):
@@ -399,6 +424,8 @@ class Recorder:
         m = self.model
         extra = ({"contact_friction": float(np.sum(state.contact.body_friction))}
                  if m.contact is not None and state.contact is not None else {})
+        if m.viscous:
+            extra["viscous"] = viscous_energies(m, state)[1]
         if not m.inelastic:
             return {"plastic": 0.0, "fracture": 0.0, "n_broken": 0.0, "crack_area": 0.0,
                     **extra}

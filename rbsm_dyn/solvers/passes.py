@@ -2,7 +2,8 @@
 
 The explicit step is a list of passes (physics/integrate.py run_dynamic):
 
-    springs (elastic | inelastic) -> aux stress (Poisson) -> contact -> bodies
+    springs (elastic | inelastic) -> aux stress (Poisson) -> contact
+        -> viscous springs -> bodies
 
 and dynamic relaxation the same force passes with its own body pass
 (physics/relax.py run_relax).  A pass that is off gets None for its
@@ -12,7 +13,10 @@ Model and State (model.py) into the kernels' containers and Options.
 """
 from dataclasses import dataclass
 
-from ..physics.arrays import BodyState, Bodies, ContactArrays, Loads, Springs, SpringHistory, of
+import numpy as np
+
+from ..physics.arrays import (BodyState, Bodies, ContactArrays, Loads, Springs, SpringHistory,
+                              ViscousSprings, of)
 from ..physics.poisson import poisson_slots
 # spring points below which every pass runs on one thread (the same sums in
 # the same order, so the same result), and the threaded variants, a cold
@@ -24,12 +28,14 @@ from ..physics.springs import SERIAL_SPRINGS
 class Options:
     """The switches of a run (hashable).  inelastic: the spring history
     pass (yield, rupture, cuts, contact springs); poisson: the auxiliary
-    stress; contact: contact between any cells; parallel: the threaded
-    variants of the passes."""
+    stress; contact: contact between any cells; viscous: the dashpots and
+    Maxwell branches of the springs (physics/viscous.py); parallel: the
+    threaded variants of the passes."""
     inelastic: bool
     poisson: bool
     contact: bool
     parallel: bool
+    viscous: bool = False
 
     @classmethod
     def of(cls, model, threads=None):
@@ -44,14 +50,14 @@ class Options:
         pay.  `threads` is kept for callers that know the run's count."""
         return cls(inelastic=bool(model.inelastic), poisson=bool(model.poisson_on),
                    contact=model.contact is not None,
-                   parallel=model.n_springs >= SERIAL_SPRINGS)
+                   parallel=model.n_springs >= SERIAL_SPRINGS, viscous=model.viscous)
 
     def passes(self, body="dynamic"):
         """The step's passes in order, by name (for `info` and the docs);
         body "plane": a plane model's step (physics/plane.py), on the 3D
         passes of its slab when it has contact or the Poisson correction."""
         if body == "plane":
-            if not (self.contact or self.poisson):
+            if not (self.contact or self.poisson or self.viscous):
                 return ["springs:plane-" + ("inelastic" if self.inelastic else "elastic"),
                         "bodies:plane"]
             body = "dynamic"
@@ -60,6 +66,8 @@ class Options:
             out.append("aux_stress")
         if self.contact and body == "dynamic":
             out.append("contact")
+        if self.viscous and body == "dynamic":
+            out.append("viscous")
         out.append("bodies:" + body)
         return out
 
@@ -86,6 +94,28 @@ def history(state, options, copy=False):
     if copy:
         return SpringHistory(*(getattr(state, f).copy() for f in SpringHistory._fields))
     return of(SpringHistory, state)
+
+
+#: the viscous springs' state arrays (model.State, arrays.ViscousSprings)
+VISCOUS_STATE = ("spring_gap", "spring_q", "spring_fv", "spring_wv")
+
+
+def viscous_springs(model, state, options, copy=False):
+    """The ViscousSprings of a run at the state's dt (its state arrays
+    copied with `copy`: an output step's pass commits nothing), None
+    without viscous springs."""
+    if not options.viscous:
+        return None
+    dt = abs(float(state.dt))
+    tau = model.law_branch_tau
+    a = np.exp(-dt / tau)
+    # b = τ (1 − a)/dt → 1 as dt/τ → 0 (expm1 keeps its digits)
+    b = -tau * np.expm1(-dt / tau) / dt if dt > 0 else np.ones_like(tau)
+    arrays = [getattr(state, f) for f in VISCOUS_STATE]
+    if copy:
+        arrays = [x.copy() for x in arrays]
+    return ViscousSprings(model.law_dashpot, model.law_branch_g, a, b, state.spring_state,
+                          *arrays, 1.0 / dt if dt > 0 else 0.0)
 
 
 def aux_stress(model, state, options):

@@ -24,7 +24,7 @@ from ..physics.rotation import quat_matrix_np, quat_mul_np
 
 def plane_ready(model, options):
     """True when the plane passes cover the model's physics."""
-    return bool(model.plane) and not (options.poisson or options.contact)
+    return bool(model.plane) and not (options.poisson or options.contact or options.viscous)
 
 
 def _z_column(rot):
