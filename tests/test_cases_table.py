@@ -141,6 +141,12 @@ TABLE: dict[str, Check] = {
         ("tests/test_surface_loads.py::test_lame_thick_cylinder_under_internal_pressure",),
         reads_case=False,
         note="the same quarter pipe slice from the test's own text"),
+    "creep_beam.yaml": Check(
+        "w(t)/w(0) = E0 J(t) of the standard solid (correspondence principle; 3.0 at 1 000 "
+        "days) within 1 %; w(0) = 1.146 mm (Timoshenko)",
+        ("tests/test_viscous.py::test_creep_beam_case",),
+        reads_case=True,
+        note="the case file itself: w(0) within 2 % of Timoshenko's"),
     "three_point_bending.yaml": Check(
         "elastic CMOD/P = 2.97e-8 m/N (Tada, Paris & Irwin 2.13); peak 1.02 kN, work of "
         "fracture → G_f = 100 J/m²",

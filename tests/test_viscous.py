@@ -23,9 +23,16 @@ Facts checked:
 * Rayleigh damping α M + β K from ζ = 5 % at the two natural frequencies of
   a two-storey shear column: the free decay of each mode gives ζ within
   5 % of 5 % (Chopra, Dynamics of Structures, §11.4);
+* a static run in time (solver.time, solvers/creep.py): relaxation of the
+  Maxwell bar and creep of the Kelvin bar against the same closed forms
+  within 1 % (both exact for histories linear over each increment: the
+  instants include the ramp's end); the creep beam (cases/creep_beam.yaml)
+  against the correspondence principle, w(t)/w(0) = E0 J(t) within 1 %
+  (Flügge, Viscoelasticity, §4.2), its w(0) against Timoshenko's within
+  2 %;
 * the energy balance within 1 % (the viscous observable counted as
-  dissipated); a restart bitwise; inputs that cannot work refused,
-  naming the key.
+  dissipated); a restart bitwise; 1 and 2 threads bitwise; inputs that
+  cannot work refused, naming the key.
 """
 import numpy as np
 import pytest
@@ -250,8 +257,14 @@ def test_what_does_not_combine_is_refused():
                "{mode: dynamic, end_time: 1}")
     with pytest.raises(CaseError, match=r"viscoelastic\.kind.*rupture"):
         load_case_text(text.replace("poisson: 0.0,", "poisson: 0.0, rupture: {strain: 0.01},"))
-    with pytest.raises(CaseError, match=r"materials\.m\.viscoelastic.*mode dynamic"):
+    with pytest.raises(CaseError, match=r"materials\.m\.viscoelastic.*solver\.time"):
         load_case_text(text.replace("{mode: dynamic, end_time: 1}", "{mode: static}"))
+    with pytest.raises(CaseError, match=r"solver\.method.*newton"):
+        load_case_text(text.replace("{mode: dynamic, end_time: 1}",
+                                    "{mode: static, method: relaxation, time: [1, 2]}"))
+    with pytest.raises(CaseError, match=r"solver\.time\[1\].*increasing"):
+        load_case_text(text.replace("{mode: dynamic, end_time: 1}",
+                                    "{mode: static, time: [1, 1, 2]}"))
     with pytest.raises(CaseError, match=r"solver\.damping\.alpha.*rayleigh"):
         load_case_text(text.replace("end_time: 1}", "end_time: 1, damping: {alpha: 1.0, "
                                     "rayleigh: {ratio: 0.05, frequencies: [1, 2]}}}"))
@@ -331,4 +344,58 @@ output: {{interval: {1 / (40 * f2):.6g}, fields: [velocity, angular_velocity]}}"
             return np.exp(-s * tt) * (a * np.cos(wd * tt) + b * np.sin(wd * tt))
         p, _ = curve_fit(decay, t, q, p0=(q[0], 0.0, zeta * omega))
         assert abs(p[2] / omega / zeta - 1.0) <= 0.05, (f, p[2] / omega)
+    assert balance(h) <= 0.01
+
+
+STATIC = {
+    # kind, the bar's history, the probe, the closed form's kernel ∫ over
+    # [t − t_r, t] of the response to a unit rate (t_r = 1 s, τ = 100 s)
+    "maxwell": ("{kind: maxwell, tau: 100.0}",
+                f"- {{group: top, displacement: [null, null, {D0}], history: [[0, 0], [1.0, 1], "
+                "[1.0e9, 1]]}", "{group: top, quantity: reaction, component: z, reduce: sum}",
+                lambda x: -100.0 * np.exp(-x / 100.0), K * D0),
+    "kelvin": ("{kind: kelvin, tau: 100.0}", "", "{group: top, quantity: displacement, "
+               "component: z, reduce: mean}",
+               lambda x: x + 100.0 * np.exp(-x / 100.0), 5.0 / K),
+}
+
+
+@pytest.mark.parametrize("kind", list(STATIC))
+def test_static_in_time_against_the_closed_forms(run_case, kind):
+    """Maxwell: the bar pulled to δ0 over 1 s, then held: F = k δ0 e^(−t/τ)
+    convolved with the ramp; Kelvin: 5 N ramped on over 1 s, then held:
+    u = (F/k)(1 − e^(−t/τ)) convolved with the ramp.  Seven instants from
+    1 s to 1 000 s (= 10 τ)."""
+    visco, item, probe, kernel, scale = STATIC[kind]
+    loads = "" if kind == "maxwell" else \
+        "loads: [{group: top, force: [0, 0, 5.0], history: [[0, 0], [1.0, 1], [1.0e9, 1]]}]"
+    h = run_case(bar(visco, f"""
+  - {{group: base, fix: all}}
+  - {{group: top, fix: [x, y, rx, ry, rz]}}
+  {item}""", "{mode: static, time: [1.0, 3, 10, 30, 100, 300, 1000]}", f"""{loads}
+output:
+  probes:
+    p: {probe}"""))
+    t = np.asarray(h.time)
+    got = np.asarray(h.observables["p"])
+    want = scale * (kernel(t) - kernel(np.maximum(t - 1.0, 0.0)))
+    assert len(t) == 8 and t[-1] == 1000.0
+    assert np.max(np.abs(got - want)) <= 0.01 * np.max(np.abs(want))
+    assert balance(h) <= 0.01
+
+
+def test_creep_beam_case(run_case):
+    """cases/creep_beam.yaml itself (its header: the standard solid's
+    J(t), τr = 90 days, and Timoshenko's w(0) = 1.146 mm)."""
+    from pathlib import Path
+    text = (Path(__file__).parent.parent / "cases" / "creep_beam.yaml").read_text()
+    h = run_case(text)
+    t = np.asarray(h.time)[1:]
+    w = -np.asarray(h.observables["mid_z"])[1:]
+    e0, e_inf, tau_r = 30.0e9, 10.0e9, 90 * 86400.0
+    creep = e0 / e_inf * (1.0 - (1.0 - e_inf / e0) * np.exp(-t / tau_r))      # E0 J(t)
+    w0 = w[0] / creep[0]
+    assert np.max(np.abs(w / (w0 * creep) - 1.0)) <= 0.01
+    assert t[-1] == pytest.approx(8.64e7) and w[-1] / w0 == pytest.approx(3.0, rel=0.01)
+    assert w0 == pytest.approx(1.146e-3, rel=0.02)
     assert balance(h) <= 0.01

@@ -408,10 +408,29 @@ def _check(case: Case) -> None:
         raise err(("ground_motion",), f"a ground motion needs solver.mode dynamic (got {s.mode}): "
                   "a record is a history in time")
     visco = [n for n, m in case.materials.items() if m.viscoelastic is not None]
-    if visco and s.mode == "static":
-        raise err(("materials", visco[0], "viscoelastic"), "a viscoelastic material needs "
-                  "solver.mode dynamic (a static run in time, for creep, is not built yet; "
-                  "modes linear and modal use the instantaneous modulus young)")
+    if visco and s.mode == "static" and s.time is None:
+        raise err(("materials", visco[0], "viscoelastic"), "a viscoelastic material in mode "
+                  "static needs solver.time, the instants of a static run in time (creep; "
+                  "docs/case_file.md, solver)")
+    if s.time is not None and s.mode == "static":
+        tp = ("solver", "time")
+        if s.given("method") and s.method != "newton":
+            raise err(("solver", "method"), "a static run in time (solver.time) is solved by "
+                      "newton")
+        if s.control is not None:
+            raise err(("solver", "control"), "not used with solver.time (the instants drive "
+                      "the run)")
+        if isinstance(s.time, list):
+            if not s.time:
+                raise err(tp, "give at least one instant [s]")
+            t = [0.0] + list(s.time)
+            for i in range(1, len(t)):
+                if not t[i] > t[i - 1]:
+                    raise err(tp + (i - 1,), f"the instants must be > 0 and increasing (got "
+                              f"{_show(t[i])} after {_show(t[i - 1])})")
+        elif not s.time.end > s.time.first:
+            raise err(tp + ("end",), f"must be > first = {_show(s.time.first)} "
+                      f"(got {_show(s.time.end)})")
     d = s.damping
     if d.rayleigh is not None:
         dp = ("solver", "damping")

@@ -3,7 +3,9 @@ damping and indirect displacement control."""
 from __future__ import annotations
 
 import math
-from typing import Annotated, Literal, Optional
+
+import numpy as np
+from typing import Annotated, Literal, Optional, Union
 
 from pydantic import Field, PrivateAttr
 
@@ -65,11 +67,21 @@ class Control(_Node):
 DT_SAFETY_MAX = 0.85
 
 
+class TimeSpan(_Node):
+    """Instants of a static run in time, log-spaced: ``increments`` of them
+    from ``first`` to ``end`` [s] (``first`` well below the shortest
+    relaxation time for a load applied at once)."""
+    first: float = Field(gt=0)
+    end: float = Field(gt=0)
+    increments: int = Field(ge=1)
+
+
 class Solver(_Node):
     mode: Literal["dynamic", "static", "linear", "modal"]
     method: Literal["relaxation", "newton"] = "relaxation"   # static: default_static_method
     _method_default: bool = PrivateAttr(default=False)      # set by default_static_method
     control: Optional[Control] = None
+    time: Optional[Union[TimeSpan, list[float]]] = None
     end_time: Optional[float] = Field(default=None, gt=0)
     dt: Optional[float] = Field(default=None, gt=0)
     dt_safety: float = Field(default=0.8, gt=0, le=DT_SAFETY_MAX)
@@ -80,6 +92,13 @@ class Solver(_Node):
     relaxation: Literal["adaptive", "local"] = "adaptive"
     damping_factor: float = Field(default=0.7, ge=0, lt=1)
     predictor: bool = True
+
+    def instants(self):
+        """The instants [s] of a static run in time (``time``), ascending."""
+        t = self.time
+        if isinstance(t, TimeSpan):
+            return [float(x) for x in np.geomspace(t.first, t.end, t.increments)]
+        return [float(x) for x in t]
     threads: Optional[int] = Field(default=None, ge=1)
     modes: int = Field(default=6, ge=1)
 
@@ -115,7 +134,7 @@ def default_static_method(case, n_bodies=None) -> str:
     NEWTON_DEFAULT_MAX_BODIES bodies (``n_bodies``, when known); then
     `relaxation`.  solver.control needs `newton`."""
     s = case.solver
-    if s.control is not None:
+    if s.control is not None or s.time is not None:
         return "newton"
     if (any(s.given(k) for k in RELAXATION_KEYS) or case.interfaces
             or continuum_yield(case)):
@@ -127,5 +146,5 @@ def default_static_method(case, n_bodies=None) -> str:
 
 DYNAMIC_KEYS = ("end_time", "dt", "dt_safety", "damping")
 STATIC_KEYS = ("load_steps", "tolerance", "max_iterations", "relaxation",
-               "damping_factor", "predictor", "method", "control")
+               "damping_factor", "predictor", "method", "control", "time")
 MODAL_KEYS = ("modes",)

@@ -155,7 +155,8 @@ def _run(case, model, args, threads, lock, notice=None):
         elif case.solver.mode == "static":
             from ..solvers import relax
             res = relax.run(case, model, rec, max_steps=args.max_steps, progress=progress)
-            summary = f"{len(res['iterations'])} load steps, {sum(res['iterations'])} iterations"
+            steps = "increments in time" if getattr(case.solver, "time", None) else "load steps"
+            summary = f"{len(res['iterations'])} {steps}, {sum(res['iterations'])} iterations"
         elif case.solver.mode == "linear":
             from ..solvers import linear       # (scipy.sparse: only these two modes)
             res = linear.run(case, model, rec)
@@ -244,7 +245,10 @@ def _final_values(case, model, res, last):
     mode = case.solver.mode
     if mode == "modal" or not values:
         return out
-    what = {"dynamic": f"t = {last['time']:.6g} s", "static": f"load factor {last['time']:.4g}",
+    in_time = mode == "dynamic" or getattr(case.solver, "time", None) is not None
+    what = {"dynamic": f"t = {last['time']:.6g} s",
+            "static": (f"t = {last['time']:.6g} s" if in_time
+                       else f"load factor {last['time']:.4g}"),
             "linear": "the solution"}.get(mode, "the end")
     probes = dict(case.output.probes or {})
     if probes:

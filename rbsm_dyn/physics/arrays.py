@@ -70,7 +70,8 @@ Features (None when a scene does not use them: the pass is not compiled)
   ViscousSprings viscous springs (physics/viscous.py): per law row the
                  dashpot time law_dashpot (L,) [s] and the Maxwell
                  branches' shares law_g and step factors law_a, law_b
-                 (L, M); per spring point spring_gap (S, 3) [m], spring_q
+                 (L, M), kelvin_a, kelvin_b (L,) or (0,) (static in
+                 time); per spring point spring_gap (S, 3) [m], spring_q
                  (S, M, 3) [N], spring_fv (S, 3) [N], spring_wv (S,) [J];
                  spring_state (the history's, or length 0); inv_dt [1/s]
   Relaxation     dynamic relaxation's fictitious masses and iteration arrays
@@ -236,7 +237,10 @@ class ViscousSprings(NamedTuple):
     β: the dashpot force τ_d k δ̇); law_g (L, M) the Maxwell branches'
     share g_i = E_i/E of the instantaneous modulus (0: no branch), law_a,
     law_b (L, M) their exact step factors exp(−dt/τ_i) and τ_i (1 − a)/dt
-    for the run's dt.  State per spring point: spring_state (the inelastic
+    for the run's dt; kelvin_a, kelvin_b (L,) the same factors of the
+    dashpot time for a static run in time (the Kelvin spring integrated
+    exactly; length 0 in a dynamic run: the dashpot's rate).  State per
+    spring point: spring_state (the inelastic
     history's, or length 0: a broken spring carries no viscous force);
     spring_gap (S, 3) [m] the local gap (n, s, t) of the last pass;
     spring_q (S, M, 3) [N] the branches' forces; spring_fv (S, 3) [N] the
@@ -246,6 +250,8 @@ class ViscousSprings(NamedTuple):
     law_g: np.ndarray
     law_a: np.ndarray
     law_b: np.ndarray
+    kelvin_a: np.ndarray
+    kelvin_b: np.ndarray
     spring_state: np.ndarray
     spring_gap: np.ndarray
     spring_q: np.ndarray

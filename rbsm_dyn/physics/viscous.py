@@ -27,6 +27,11 @@ Energy: spring_wv accumulates the work of f_v on the spring,
 energy is Σ q²/(2 g k) − ½ g k δ² beyond the spring pass's ½ k δ², so the
 dissipated energy is spring_wv minus it (solvers/output.py).
 
+A static run in time (solvers/creep.py) takes steps of days: there the
+dashpot's rate would be a backward Euler step, so the Kelvin spring
+σ = k (δ + τ δ̇) is integrated exactly instead (kelvin_a, kelvin_b; the
+branches as above): both exact for histories linear over each step.
+
 A broken spring (spring_state ≥ BROKEN: a crack, a cut) carries no
 viscous force: its branches and rate are dropped.  Maxwell branches are
 for materials without yield or rupture (case/check.py says why).
@@ -41,12 +46,25 @@ JIT = dict(cache=True, nogil=True, fastmath={"contract"}, error_model="numpy")
 
 
 @nb.njit(inline="always", **JIT)
-def _component(s, c, law, dj, k, td, inv_dt, law_g, law_a, law_b, spring_gap, spring_q,
-               spring_fv):
+def _component(s, c, law, dj, k, td, inv_dt, law_g, law_a, law_b, kelvin_a, kelvin_b,
+               spring_gap, spring_q, spring_fv):
     """Component c of spring s: its viscous force at the gap dj [m] (the
     branches and the gap updated); returns (force [N], work of the step [J])."""
     delta = dj - spring_gap[s, c]
-    fv = td * k * delta * inv_dt
+    if kelvin_a.shape[0] > 0:
+        # static in time: the Kelvin spring σ = k (δ + τ δ̇) integrated exactly
+        # for σ linear over the step, δ1 = a δ0 + (b − a) σ0/k + (1 − b) σ1/k
+        # (a = e^(−dt/τ), b = τ (1 − a)/dt; Bažant's exponential algorithm,
+        # Bažant & Wu 1973), solved for σ1; a = 1, b = 0 gives back σ0
+        fv = 0.0
+        if td > 0.0:
+            a = kelvin_a[law]
+            b = kelvin_b[law]
+            d0 = spring_gap[s, c]
+            s0 = k * d0 + spring_fv[s, c]
+            fv = (k * (dj - a * d0) - (b - a) * s0) / (1.0 - b) - k * dj
+    else:
+        fv = td * k * delta * inv_dt
     for i in range(law_g.shape[1]):
         g = law_g[law, i]
         if g == 0.0:
@@ -65,7 +83,8 @@ def _component(s, c, law, dj, k, td, inv_dt, law_g, law_a, law_b, spring_gap, sp
 def _viscous_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spring_slot,
                    face_frame0, face_k, face_law, spring_area, body_pos, body_rot, body_dq,
                    body_wrench, body_support, store, spring_force, spring_state, law_dashpot,
-                   law_g, law_a, law_b, inv_dt, spring_gap, spring_q, spring_fv, spring_wv):
+                   law_g, law_a, law_b, kelvin_a, kelvin_b, inv_dt, spring_gap, spring_q,
+                   spring_fv, spring_wv):
     """The springs of group g, in order (partition.py), as the spring pass."""
     s0 = group_ptr[g]
     s1 = group_ptr[g + 1]
@@ -106,13 +125,13 @@ def _viscous_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spri
         # local gap δ = Fᵀ d (F = G / n2)
         c0, w_0 = _component(s, 0, law, inv * (G00 * d0 + G10 * d1 + G20 * d2),
                              face_k[f, 0] * area, td, inv_dt, law_g, law_a, law_b,
-                             spring_gap, spring_q, spring_fv)
+                             kelvin_a, kelvin_b, spring_gap, spring_q, spring_fv)
         c1, w_1 = _component(s, 1, law, inv * (G01 * d0 + G11 * d1 + G21 * d2),
                              face_k[f, 1] * area, td, inv_dt, law_g, law_a, law_b,
-                             spring_gap, spring_q, spring_fv)
+                             kelvin_a, kelvin_b, spring_gap, spring_q, spring_fv)
         c2, w_2 = _component(s, 2, law, inv * (G02 * d0 + G12 * d1 + G22 * d2),
                              face_k[f, 2] * area, td, inv_dt, law_g, law_a, law_b,
-                             spring_gap, spring_q, spring_fv)
+                             kelvin_a, kelvin_b, spring_gap, spring_q, spring_fv)
         spring_wv[s] += w_0 + w_1 + w_2
         # the force on body a in world axes, F f_v (as the spring pass's F k δ)
         f0 = inv * (G00 * c0 + G01 * c1 + G02 * c2)
@@ -147,14 +166,14 @@ def _viscous_phase(lo, hi, springs, bs, visc, store):
     body_wrench = bs.body_wrench
     body_support = bs.body_support
     spring_force = bs.spring_force
-    (law_dashpot, law_g, law_a, law_b, spring_state, spring_gap, spring_q, spring_fv,
-     spring_wv, inv_dt) = visc
+    (law_dashpot, law_g, law_a, law_b, kelvin_a, kelvin_b, spring_state, spring_gap, spring_q,
+     spring_fv, spring_wv, inv_dt) = visc
     for g in nb.prange(lo, hi):
         _viscous_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spring_slot,
                        face_frame0, face_k, face_law, spring_area, body_pos, body_rot,
                        body_dq, body_wrench, body_support, store, spring_force, spring_state,
-                       law_dashpot, law_g, law_a, law_b, inv_dt, spring_gap, spring_q,
-                       spring_fv, spring_wv)
+                       law_dashpot, law_g, law_a, law_b, kelvin_a, kelvin_b, inv_dt,
+                       spring_gap, spring_q, spring_fv, spring_wv)
 
 
 @nb.njit(**JIT)
@@ -175,15 +194,15 @@ def _viscous_serial(springs, bs, visc, store):
     body_wrench = bs.body_wrench
     body_support = bs.body_support
     spring_force = bs.spring_force
-    (law_dashpot, law_g, law_a, law_b, spring_state, spring_gap, spring_q, spring_fv,
-     spring_wv, inv_dt) = visc
+    (law_dashpot, law_g, law_a, law_b, kelvin_a, kelvin_b, spring_state, spring_gap, spring_q,
+     spring_fv, spring_wv, inv_dt) = visc
     phase_ptr = springs.phase_ptr
     for g in range(0, phase_ptr[phase_ptr.shape[0] - 1]):
         _viscous_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spring_slot,
                        face_frame0, face_k, face_law, spring_area, body_pos, body_rot,
                        body_dq, body_wrench, body_support, store, spring_force, spring_state,
-                       law_dashpot, law_g, law_a, law_b, inv_dt, spring_gap, spring_q,
-                       spring_fv, spring_wv)
+                       law_dashpot, law_g, law_a, law_b, kelvin_a, kelvin_b, inv_dt,
+                       spring_gap, spring_q, spring_fv, spring_wv)
 
 
 @nb.njit(**JIT)

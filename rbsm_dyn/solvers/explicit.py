@@ -65,7 +65,7 @@ class RunFailed(RuntimeError):
     """A run that stopped early (divergence, no convergence)."""
 
 
-def spring_pass(model, state, substep=False):
+def spring_pass(model, state, substep=False, static=False):
     """Spring wrenches on the bodies (with the auxiliary stress of the
     Poisson correction, physics/poisson.py) and the force on body a of every spring
     (state.spring_force) at the current positions, for output and
@@ -74,7 +74,9 @@ def spring_pass(model, state, substep=False):
     spring history at the current positions, are returned (None for an
     elastic model).  `substep`: the
     forces of the explicit time step (a strain-law spring breaking inside
-    the step keeps a share of its force, physics/inelastic.py)."""
+    the step keeps a share of its force, physics/inelastic.py).  `static`:
+    a static solution's frame: the viscous springs' committed forces (no
+    step in time; solvers/creep.py)."""
     m = model
     opt = Options.of(m)
     bodies, springs, loads = model_arrays(m)
@@ -94,7 +96,8 @@ def spring_pass(model, state, substep=False):
     if opt.viscous:
         # on copies, as the spring history: the viscous forces and work at
         # these positions (the step from here commits its own)
-        visc = viscous_springs(m, state, opt, copy=True)
+        visc = viscous_springs(m, state, opt, copy=True, dt=0.0 if static else None,
+                               static=static)
         viscous_pass(springs, bs, visc, True, parallel_arg(opt))
         trial = {} if trial is None else trial
         trial.update({f: getattr(visc, f) for f in VISCOUS_STATE})

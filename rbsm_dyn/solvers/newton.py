@@ -693,8 +693,12 @@ def probe_functional(model, state, plan):
 
 
 def run(case, model, recorder, *, max_steps=None, progress=None):
-    """Solve the static case by Newton iterations (module docstring)."""
+    """Solve the static case by Newton iterations (module docstring); a
+    run in time (solver.time) by solvers/creep.py."""
     sol = case.solver
+    if getattr(sol, "time", None) is not None:
+        from . import creep
+        return creep.run(case, model, recorder, max_steps=max_steps, progress=progress)
     m = model
     try:
         it_ = Newton(m)

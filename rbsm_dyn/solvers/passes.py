@@ -100,22 +100,36 @@ def history(state, options, copy=False):
 VISCOUS_STATE = ("spring_gap", "spring_q", "spring_fv", "spring_wv")
 
 
-def viscous_springs(model, state, options, copy=False):
-    """The ViscousSprings of a run at the state's dt (its state arrays
-    copied with `copy`: an output step's pass commits nothing), None
-    without viscous springs."""
+def viscous_springs(model, state, options, copy=False, dt=None, static=False):
+    """The ViscousSprings of a run, None without viscous springs: its step
+    factors for dt [s] (default |state.dt|), its state arrays copied with
+    `copy` (an output step's pass commits nothing).  `static`: a static
+    run in time (solvers/creep.py): the Kelvin springs integrated exactly
+    (kelvin_a, kelvin_b); dt = 0 there gives back the committed forces (a
+    frame's pass)."""
     if not options.viscous:
         return None
-    dt = abs(float(state.dt))
-    tau = model.law_branch_tau
-    a = np.exp(-dt / tau)
-    # b = τ (1 − a)/dt → 1 as dt/τ → 0 (expm1 keeps its digits)
-    b = -tau * np.expm1(-dt / tau) / dt if dt > 0 else np.ones_like(tau)
+    dt = abs(float(state.dt)) if dt is None else float(dt)
+    a, b = step_factors(model.law_branch_tau, dt, static)
+    ka = kb = np.zeros(0)
+    if static:
+        td = model.law_dashpot
+        ka, kb = step_factors(np.where(td > 0.0, td, 1.0), dt, static)
     arrays = [getattr(state, f) for f in VISCOUS_STATE]
     if copy:
         arrays = [x.copy() for x in arrays]
-    return ViscousSprings(model.law_dashpot, model.law_branch_g, a, b, state.spring_state,
-                          *arrays, 1.0 / dt if dt > 0 else 0.0)
+    return ViscousSprings(model.law_dashpot, model.law_branch_g, a, b, ka, kb,
+                          state.spring_state, *arrays, 1.0 / dt if dt > 0 else 0.0)
+
+
+def step_factors(tau, dt, static):
+    """a = e^(−dt/τ) and b = τ (1 − a)/dt of relaxation times τ [s]
+    (physics/viscous.py); dt = 0: (1, 0) in a static run (the forces
+    kept), (1, 1) in a dynamic one (the limit: a rate-free step)."""
+    if dt == 0.0:
+        return np.ones_like(tau), (np.zeros_like(tau) if static else np.ones_like(tau))
+    # b → 1 as dt/τ → 0: expm1 keeps its digits
+    return np.exp(-dt / tau), -tau * np.expm1(-dt / tau) / dt
 
 
 def aux_stress(model, state, options):

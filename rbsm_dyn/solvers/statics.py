@@ -41,18 +41,22 @@ def load_work(model, state, lam):
     return work
 
 
-def path_work(recorder, model, state, lam):
+def path_work(recorder, model, state, lam, load=None):
     """External work along the load path [J]: the trapezoidal sum over the
     recorded equilibrium states of ½ (f_k−1 + f_k)·(u_k − u_k−1), f the
     loads at factor λ and the constraint forces on prescribed
     displacements, u the displacements and rotation vectors.  At
     equilibrium it equals strain + plastic + fracture energy (exactly for a
     linear response, to O(Δλ²) otherwise), so a static run's energy
-    balance means what a dynamic run's does (issue 13)."""
+    balance means what a dynamic run's does (issue 13).  `load` (N, 6): the
+    applied loads when they are not λ × the full ones (a run in time)."""
     n = model.n_bodies
     f = np.zeros((n, 6))
-    f[:, :3] = lam * (model.body_fext + model.body_mass[:, None] * model.gravity)
-    f[:, 3:] = lam * model.body_mext
+    if load is None:
+        f[:, :3] = lam * (model.body_fext + model.body_mass[:, None] * model.gravity)
+        f[:, 3:] = lam * model.body_mext
+    else:
+        f[:] = load
     disp = model.dof_kind[:, :3] == 3
     cons = state.body_reaction - state.body_support[:n]
     f[:, :3][disp] += cons[disp]
@@ -69,12 +73,15 @@ def path_work(recorder, model, state, lam):
     return work
 
 
-def record_frame(recorder, model, state, step, lam, ratio):
-    """One frame of a static solution at load factor lam (velocities zero)."""
-    spring_pass(model, state)
+def record_frame(recorder, model, state, step, lam, ratio, time=None, load=None, amp=None):
+    """One frame of a static solution at load factor lam (velocities zero);
+    a run in time (solvers/creep.py): at `time` [s] under `load` (N, 6),
+    the bodies' load amplitudes `amp` (N,)."""
+    spring_pass(model, state, static=True)
     n = model.n_bodies
     zero = np.zeros((n, 3))
-    work = path_work(recorder, model, state, lam)
+    work = path_work(recorder, model, state, lam, load)
     obs = {"kinetic": 0.0, "strain": recorder.strain_energy(state), "external_work": work,
            "damping": 0.0, "residual": float(ratio)}
-    recorder.append(state, step, lam, zero, zero, obs, np.full(n, lam))
+    recorder.append(state, step, lam if time is None else time, zero, zero, obs,
+                    np.full(n, lam) if amp is None else amp)
