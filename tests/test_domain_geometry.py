@@ -271,3 +271,8 @@ def test_check_says_when_two_items_prescribe_different_components_of_a_body(tmp_
     err = capsys.readouterr().err
     assert "boundary[1] (z) and boundary[2] (x) share 1 body" in err, err
     assert "boundary[0]" not in err, err        # the base shares no body with them
+    # two items of one group (held in x, driven in z) are meant: no warning
+    path.write_text(text.replace("{group: right, displacement: [1.0e-5, null, null]}",
+                                 "{group: top, fix: [x]}"))
+    assert main(["check", str(path)]) == 0
+    assert "share" not in capsys.readouterr().err

@@ -148,7 +148,7 @@ def constraints(case, mesh, groups, hist, notes):
                 dof_hist[ids, c] = h
     if case.ground_motion is not None:
         _ground_motion(case, hist, dof_kind, dof_value, dof_hist, dof_item)
-    _shared_bodies(dof_item, notes)
+    _shared_bodies(dof_item, notes, list(case.boundary or []))
     return dof_kind, dof_value, dof_hist
 
 
@@ -218,11 +218,13 @@ def _ground_motion(case, hist, dof_kind, dof_value, dof_hist, dof_item):
                          "direction: nothing would move with the ground")
 
 
-def _shared_bodies(dof_item, notes):
+def _shared_bodies(dof_item, notes, boundary=()):
     """A note for two boundary items that prescribe different components of
     the same bodies (a corner cell in `top` with z and in `right` with x):
     each body takes the components of both, which is what a corner needs,
-    but said, so that an overlap of groups that was not meant is seen."""
+    but said, so that an overlap of groups that was not meant is seen.  Two
+    items of one group (`{group: g, fix: [x, y]}` and `{group: g,
+    velocity: ...}`) are meant: no note."""
     hi = dof_item.max(axis=1)
     lo = np.where(dof_item >= 0, dof_item, hi[:, None]).min(axis=1)
     rows, counts = np.unique(dof_item[lo != hi], axis=0, return_counts=True)
@@ -233,6 +235,10 @@ def _shared_bodies(dof_item, notes):
             for b in range(a + 1, len(items)):
                 seen[(items[a], items[b])] = seen.get((items[a], items[b]), 0) + int(count)
     for (j, k), count in sorted(seen.items()):
+        gj, gk = (getattr(boundary[i], "group", None) if i < len(boundary) else None
+                  for i in (j, k))
+        if gj is not None and gj == gk:
+            continue
         cj = ", ".join(COMPONENTS[c] for c in range(6) if np.any(dof_item[:, c] == j))
         ck = ", ".join(COMPONENTS[c] for c in range(6) if np.any(dof_item[:, c] == k))
         notes.append(f"boundary[{j}] ({cj}) and boundary[{k}] ({ck}) share {count} "
