@@ -228,10 +228,13 @@ def test_impulsive_beam_at_dt_safety_1_is_stopped_or_balanced(tmp_path, capsys, 
 
 
 def test_start_up_lag_of_the_work_is_not_taken_for_divergence(tmp_path, capsys):
-    """The work is booked half a step behind the energy: a driver ramped
-    from rest has 2.1× the supplied energy at step 1 (the frame that a
-    one-frame check would stop at) and 1.0 ± 0.05 from step 4 on; the run
-    completes."""
+    """A driver ramped from rest over two steps: the body pass books the
+    constraint's work r v̄ dt a step at a time, half a step behind the
+    frame's energy; the half step to the frame is booked at the frame
+    (explicit.constraint_half_step_work), so the held and dissipated energy
+    is the supplied one within 5 % from the first step on (it was 2.1× at
+    step 1 before: the frame a one-frame divergence check would stop at);
+    the run completes."""
     text = (ROOT / "cases" / "bar_wave.yaml").read_text(encoding="utf-8")
     for old, new in (("velocity: [1.0, null, null]}",
                       "velocity: [1.0, null, null], history: [[0, 0], [1.0e-6, 1], [1, 1]]}"),
@@ -246,8 +249,8 @@ def test_start_up_lag_of_the_work_is_not_taken_for_divergence(tmp_path, capsys):
     o, eb = h.observables, h.energy_balance()
     ratio = sum(o[k] for k in ("kinetic", "strain", "plastic", "fracture", "damping")) \
         / eb["supplied"]
-    assert h.step[1] == 1 and ratio[1] > 1.5
-    assert np.all(np.abs(ratio[4:] - 1.0) < 0.05), ratio
+    assert h.step[1] == 1
+    assert np.all(np.abs(ratio[1:] - 1.0) < 0.05), ratio
 
 
 # ------------------------------------------------------------------ 4: run-time refusals

@@ -489,6 +489,13 @@ def _check(case: Case) -> None:
                 check_surface(probe.surface, path + ("surface",))
             else:
                 check_group(probe.group, path + ("group",))
+            if probe.relative_to is not None:
+                if case.ground_motion is None:
+                    raise err(path + ("relative_to",), "relative to the ground needs "
+                              "ground_motion (without it the ground does not move)")
+                if probe.quantity not in ("displacement", "velocity"):
+                    raise err(path + ("relative_to",), "for quantity displacement or "
+                              f"velocity (got {probe.quantity})")
             continue
         # relative_displacement: two groups or two points, a component or a direction
         if probe.groups is None and probe.points is None:

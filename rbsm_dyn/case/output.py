@@ -11,7 +11,9 @@ from .base import Vec3, _length, _Node
 class Probe(_Node):
     """``{group, quantity, component, reduce}``: one number from a group's
     bodies; ``surface: name`` instead of ``group``: the cells with a face on
-    that named surface (the reaction on a supported surface)."""
+    that named surface (the reaction on a supported surface).
+    ``relative_to: ground``: a displacement or velocity less the ground's
+    (a case with ground_motion)."""
     group: Optional[str] = None
     surface: Optional[str] = None
     # (relative_displacement is read as a RelativeProbe: listed here so that
@@ -20,6 +22,7 @@ class Probe(_Node):
                       "relative_displacement"]
     component: Literal["x", "y", "z", "magnitude"]
     reduce: Literal["mean", "sum", "max", "min"]
+    relative_to: Optional[Literal["ground"]] = None
 
 
 class RelativeProbe(_Node):

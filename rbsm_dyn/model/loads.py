@@ -165,10 +165,7 @@ def _ground_motion(case, hist, dof_kind, dof_value, dof_hist, dof_item):
     midpoint-rule integral, within (dt²/24) max|ȧ_g| of d_g.  A support by springs to the ground
     ({face | surface, fix}) and the contact ground do not move yet: refused,
     naming the item."""
-    from pathlib import Path
-    from ..case import _case_dir
     from ..case.boundary import FaceSupport, GroupFix
-    from ..records import integrate, read_record
     gm = case.ground_motion
     at = ("ground_motion",)
     if case.solver.mode != "dynamic":
@@ -191,17 +188,7 @@ def _ground_motion(case, hist, dof_kind, dof_value, dof_hist, dof_item):
         raise case.error(at + ("direction",), "in a plane case the ground moves in the "
                          "plane: [x, y]")
     direction = direction / norm
-    path = Path(gm.file)
-    if not path.is_absolute():
-        path = _case_dir(case) / path
-    try:
-        t, a = read_record(path, dt=gm.dt, units=gm.units, scale=gm.scale,
-                           columns=tuple(gm.columns), skip=gm.skip)
-        (tf, _, vf, _), _ = integrate(t, a, baseline=gm.baseline)
-    except (OSError, ValueError, IndexError) as exc:
-        raise case.error(at + ("file",), f"{path}: {exc}") from None
-    if len(t) < 2 or np.any(np.diff(t) <= 0.0):
-        raise case.error(at + ("file",), f"{path}: the times must increase")
+    tf, vf, _ = ground_table(case)
     h = hist.add(np.column_stack([tf, vf]))
     fixes = [j for j, item in enumerate(items) if isinstance(item, GroupFix)]
     moved = 0
@@ -216,6 +203,29 @@ def _ground_motion(case, hist, dof_kind, dof_value, dof_hist, dof_item):
     if moved == 0:
         raise case.error(at, "no {group, fix} support holds a component along its "
                          "direction: nothing would move with the ground")
+
+
+def ground_table(case):
+    """(t [s], v [m/s], d [m]) of a case's ground motion: the record,
+    linear between its samples, integrated exactly to the ground's
+    velocity and displacement along its direction (records.py), baseline
+    corrected; CaseError naming ground_motion.file when it cannot be read."""
+    from pathlib import Path
+    from ..case import _case_dir
+    from ..records import integrate, read_record
+    gm = case.ground_motion
+    path = Path(gm.file)
+    if not path.is_absolute():
+        path = _case_dir(case) / path
+    try:
+        t, a = read_record(path, dt=gm.dt, units=gm.units, scale=gm.scale,
+                           columns=tuple(gm.columns), skip=gm.skip)
+        if len(t) < 2 or np.any(np.diff(t) <= 0.0):
+            raise ValueError("the times must increase")
+        (tf, _, vf, df), _ = integrate(t, a, baseline=gm.baseline)
+    except (OSError, ValueError, IndexError) as exc:
+        raise case.error(("ground_motion", "file"), f"{path}: {exc}") from None
+    return tf, vf, df
 
 
 def _shared_bodies(dof_item, notes, boundary=()):

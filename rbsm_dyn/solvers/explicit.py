@@ -28,7 +28,7 @@ from ..model.contact import chunk_steps as contact_chunk
 from ..model.contact import rebuild, stiffness_check
 from ..physics.arrays import Stepping
 from ..physics.collide import contact_step
-from ..physics.integrate import run_dynamic, synchronized_momenta
+from ..physics.integrate import VELOCITY, run_dynamic, synchronized_momenta
 from ..physics.passes import spring_forces
 from ..physics.plane import run_plane
 from ..physics.viscous import viscous_pass
@@ -221,7 +221,7 @@ def load_amplitude(model, t):
     return amp[body.reshape(-1)]
 
 
-def external_work(model, state, w_steps):
+def external_work(model, state, w_steps, vel=None):
     """Work of loads, gravity and constraints since t = 0 [J], accumulated
     per step as f_n · v_{n+1/2} dt (for a constant force such as gravity this
     is exactly f · (x − x0), since x_{n+1} − x_n = v_{n+1/2} dt).
@@ -234,7 +234,31 @@ def external_work(model, state, w_steps):
     w = float(np.sum(w_steps))
     if len(model.body_ffol):
         w += float(np.sum(follower_half_step_work(model, state)))
+    if vel is not None:
+        w += constraint_half_step_work(model, state, vel)
     return w
+
+
+def constraint_half_step_work(model, state, vel):
+    """Work [J] of the prescribed velocities over the half step from the
+    last kick to the present frame (v_{N−1/2} → v_N, vel the synchronised
+    (N, 3)): the half kick's kinetic energy ½ m (v_N² − v_{N−1/2}²) less
+    the forces' share ½ dt f_N v̄ (f_N = the reaction less the support
+    springs' part and the constraint's, synchronized_momenta), so that the
+    per-step r v̄ dt of the body pass (physics/integrate.py) meets the
+    frame's kinetic energy."""
+    m = model
+    n = m.n_bodies
+    held = m.dof_kind[:, :3] == VELOCITY
+    if not np.any(held):
+        return 0.0
+    v_half = state.body_vel[:n]
+    mass = np.broadcast_to(m.body_mass[:, None], (n, 3))
+    # r_N over the half kick: m (v_N − v_half)/(dt/2) − f_N, and −f_N is the
+    # constraint part of the reaction (body_reaction − body_support)
+    r = (2.0 * mass * (vel - v_half) / state.dt
+         + (state.body_reaction[:n] - state.body_support[:n]))
+    return float(np.sum((r * 0.25 * state.dt * (vel + v_half))[held]))
 
 
 def follower_half_step_work(model, state):
@@ -300,7 +324,7 @@ def run(case, model, recorder, *, max_steps=None, progress=None, chunk_steps=Non
         now = dataclasses.replace(state, **trial)
         ek = recorder.kinetic(vel, ang, now)
         obs = {"kinetic": ek, "strain": recorder.strain_energy(now),
-               "external_work": external_work(model, state, state.body_work),
+               "external_work": external_work(model, state, state.body_work, vel),
                "damping": float(np.sum(state.body_damp))}
         if local:
             obs["kinetic_ratio"] = ek / obs["strain"] if obs["strain"] > 0 else 0.0

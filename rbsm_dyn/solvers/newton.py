@@ -693,12 +693,8 @@ def probe_functional(model, state, plan):
 
 
 def run(case, model, recorder, *, max_steps=None, progress=None):
-    """Solve the static case by Newton iterations (module docstring); a
-    run in time (solver.time) by solvers/creep.py."""
+    """Solve the static case by Newton iterations (module docstring)."""
     sol = case.solver
-    if getattr(sol, "time", None) is not None:
-        from . import creep
-        return creep.run(case, model, recorder, max_steps=max_steps, progress=progress)
     m = model
     try:
         it_ = Newton(m)

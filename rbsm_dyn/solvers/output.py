@@ -460,9 +460,25 @@ class Recorder:
                                                              m.body_ffol[ids])
             else:
                 v = state.body_reaction[ids]
+            if getattr(p, "relative_to", None) == "ground":
+                v = v - self.ground_motion(t, p.quantity)
             comp = v[:, "xyz".index(p.component)] if p.component in "xyz" else np.linalg.norm(v, axis=1)
             out[name] = float(getattr(np, p.reduce)(comp))
         return out
+
+    def ground_motion(self, t, quantity):
+        """The ground's displacement or velocity (3,) at time t (model/loads.py
+        ground_table, linear between its points; at rest before and after)."""
+        table = getattr(self, "_ground", None)
+        if table is None:
+            from ..model.loads import ground_table
+            gm = self.case.ground_motion
+            tg, vg, dg = ground_table(self.case)
+            e = np.asarray(gm.direction, float)
+            table = self._ground = (tg, vg, dg, e / np.linalg.norm(e))
+        tg, vg, dg, e = table
+        y = vg if quantity == "velocity" else dg
+        return np.interp(t, tg, y, left=0.0, right=float(y[-1])) * e
 
     def relative_displacement(self, state, plan):
         """Displacement of end b minus end a (probe_plan), projected."""

@@ -38,8 +38,12 @@ def fictitious_masses(model, beta):
 
 def run(case, model, recorder, *, max_steps=None, progress=None, check_every=200):
     """Solve the static case; returns figures (iterations per load step).
-    `solver.method: newton` goes to solvers/newton.py."""
+    `solver.method: newton` goes to solvers/newton.py, a run in time
+    (`solver.time`) to solvers/creep.py."""
     sol = case.solver
+    if getattr(sol, "time", None) is not None:
+        from . import creep
+        return creep.run(case, model, recorder, max_steps=max_steps, progress=progress)
     if getattr(sol, "method", "relaxation") == "newton":
         from . import newton
         return newton.run(case, model, recorder, max_steps=max_steps, progress=progress)
