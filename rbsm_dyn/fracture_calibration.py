@@ -82,7 +82,8 @@ def fracture_ratios(mesh_kind, young, fracture_energy, tensile_strength, cell_si
 
 def tension_specimen(*, cell, cells_across=8, notch=0.5, young=30.0e9, density=2400.0,
                      poisson=0.0, tensile_strength=3.0e6, fracture_energy=None, beta=None,
-                     values="material", seed=1, rate=0.25, extra="", plane=False, ramps=3):
+                     values="material", seed=1, rate=0.25, extra="", plane=False, ramps=3,
+                     frames=150):
     """YAML text of the calibration specimens (docs/calibration.md,
     "Fracture"): a Voronoi prism W × W × 2W (W = cells_across × cell) on a
     support on zmin holding z, pulled along z at its top cell layer at a
@@ -94,7 +95,9 @@ def tension_specimen(*, cell, cells_across=8, notch=0.5, young=30.0e9, density=2
     opening 2 G_f/f_t of a face has been applied twice over, and not before
     `ramps` ramp times (3, the calibration's; a notched specimen has
     dissipated 99.2-99.9 % of its fracture energy after 2, measured on
-    seeds 17 and 18 at 2 mm and 17 at 1.6 mm).  Probes: F (z
+    seeds 17 and 18 at 2 mm and 17 at 1.6 mm).  `frames`: output frames
+    (each synchronises the state and writes; a test reading the last one
+    needs a few).  Probes: F (z
     reaction on the support, negative in tension) and u (top displacement).
     `plane`: the plane-stress specimen W × 2W of thickness `cell` (a
     plane model, pulled along y), the same notches as edge cuts.
@@ -104,7 +107,7 @@ def tension_specimen(*, cell, cells_across=8, notch=0.5, young=30.0e9, density=2
     if plane:
         return _plane_specimen(cell, cells_across, notch, young, density, poisson,
                                tensile_strength, fracture_energy, values, seed, rate, extra,
-                               ramps)
+                               ramps, frames)
     W = cells_across * cell
     L = 2 * W
     c0 = (young / density) ** 0.5
@@ -139,7 +142,7 @@ boundary:
 {cut}
 solver: {{mode: dynamic, end_time: {t_end!r}}}
 output:
-  interval: {t_end / 150!r}
+  interval: {t_end / frames!r}
   fields: [position]
   probes:
     F: {{group: bottom, quantity: reaction, component: z, reduce: sum}}
@@ -149,7 +152,7 @@ output:
 
 
 def _plane_specimen(cell, cells_across, notch, young, density, poisson, tensile_strength,
-                    fracture_energy, values, seed, rate, extra, ramps):
+                    fracture_energy, values, seed, rate, extra, ramps, frames=150):
     """tension_specimen's plane-stress twin (see there), pulled by the cells
     on its top edge (all of them: a group of the cells whose centroids lie
     near the edge leaves some edge cells behind, and the plane lattice then
@@ -185,7 +188,7 @@ boundary:
 {cut}
 solver: {{mode: dynamic, end_time: {t_end!r}}}
 output:
-  interval: {t_end / 150!r}
+  interval: {t_end / frames!r}
   fields: [position]
   probes:
     F: {{group: bottom, quantity: reaction, component: y, reduce: sum}}
