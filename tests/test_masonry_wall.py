@@ -10,8 +10,7 @@ stays below g b/h and rocks about a toe beyond; b/h = 0.6 here, friction
   0.3 s to settle) the heel stays down (< 0.1 mm) below 5/6 of g b/h and
   lifts by 3 mm within 10 % of g b/h of when Housner's equation of motion
   of the rigid wall, started at g b/h, says;
-* under the case's record scaled to a peak of 0.5 g the wall stands (heel
-  uplift below 0.1 mm); at the record's 1 g it rocks (uplift above 1 mm).
+* under the case's record (peak 1 g) it rocks (uplift above 1 mm).
 """
 from pathlib import Path
 
@@ -84,14 +83,11 @@ def test_wall_starts_to_rock_at_g_b_over_h(run_case, tmp_path):
     assert abs(t_sim - t_ode) / span <= 0.1 * B_OVER_H
 
 
-@pytest.mark.parametrize("scale, rocks", [(0.5, False), (1.0, True)])
-def test_wall_under_the_record(run_case, scale, rocks):
-    h = run_case(case_text(CASE.parent / "records" / "synthetic_quake.csv", 6.0, scale))
-    most = uplift(h).max()
-    if rocks:
-        assert most > 1e-3
-    else:
-        assert most < LIFTED
+def test_wall_under_the_record(run_case):
+    """The case's record (peak 1 g, above g b/h): the wall rocks (the
+    ramp test above shows it stays down below 5/6 of g b/h)."""
+    h = run_case(case_text(CASE.parent / "records" / "synthetic_quake.csv", 6.0))
+    assert uplift(h).max() > 1e-3
     # (no energy balance here: the contacts' tangential spring has a
     # stiffness that follows the overlap's area, which changes as a block
     # rocks, so its ½ k_t u² is not a potential; the balance is off by 4–6 %
