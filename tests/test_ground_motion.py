@@ -185,7 +185,7 @@ def test_block_on_spring_quake_case(run_case):
     u = np.asarray(h.observables["u"])
     tr, ar = read_record(root / "records" / "synthetic_quake.csv", scale=0.01)
     _, (tc, ac) = integrate(tr, ar)
-    omega = np.sqrt(1.0e4 / 1000.0) / 0.1
+    omega = np.sqrt(2.0e6 / 2000.0) / 1.0                  # √(E/ρ)/L
     sd = spectrum(tc, ac, [2.0 * np.pi / omega], 0.05)["Sd"][0]
     assert np.abs(u).max() == pytest.approx(sd, rel=1e-2)
     e = h.energy_balance()
