@@ -8,7 +8,7 @@ import os
 import sys
 import time
 
-from .notice import CompileNotice, _run_kind
+from .notice import CompileNotice, _run_kind, run_kinds
 from .prepare import _extra_observables, load, prepare
 from .progress import Progress
 from .signals import stop_if_interrupted
@@ -133,7 +133,7 @@ def _run(case, model, args, threads, lock, notice=None):
             "newton" if getattr(case.solver, "method", "") == "newton" else "load steps")
     progress = Progress(not args.quiet, kind=kind)
     if notice is None:
-        notice = CompileNotice([_run_kind(case)], enabled=not args.quiet)
+        notice = CompileNotice(run_kinds(case), enabled=not args.quiet)
     progress.on_first = notice.done
     notice.progress = progress
     # (the heartbeat of a warm-looking run: only where the first chunk is
