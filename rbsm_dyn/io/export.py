@@ -148,6 +148,12 @@ def cells_mesh(h: History, k: int, geom: CellGeometry | None = None, scale: floa
             pv_ += np.cross(w[vc], pts - (geom.x0 + scale * (x - geom.x0))[vc])
         grid.point_data["velocity"] = pv_
         grid.cell_data["velocity"] = v
+    g = h.ground_displacement
+    if g is not None:
+        # a case with a ground_motion: the fields relative to the ground
+        grid.cell_data["displacement_relative_to_ground"] = scale * (x - geom.x0 - g[k])
+        if v is not None:
+            grid.cell_data["velocity_relative_to_ground"] = v - h.ground_velocity[k]
     if q is not None and geom.q0 is not None:
         grid.cell_data["rotation"] = rotation_vectors(q, geom.q0)
     sig = h.cell_stress[k] if h.cell_stress is not None else None

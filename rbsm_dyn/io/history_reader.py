@@ -173,6 +173,42 @@ class History:
         c = self.static.get("connectivity/springs")
         return None if c is None else int(np.shape(c)[0])
 
+    def _ground(self, name: str):
+        """(T, 3) the observable `name` (along the ground's direction) times
+        that direction, or None without a ground motion."""
+        along = self.observables.get(name)
+        if along is None:
+            return None
+        e = np.asarray((self.case().get("ground_motion") or {}).get("direction",
+                                                                    [1.0, 0.0, 0.0]), float)
+        return np.asarray(along, float)[:, None] * (e / np.linalg.norm(e))[None, :]
+
+    @property
+    def ground_displacement(self):
+        """(T, 3) [m] the ground's displacement (a case with a
+        ``ground_motion``: its record integrated and baseline corrected,
+        the same as probes ``relative_to: ground`` take), or None."""
+        return self._ground("ground_displacement")
+
+    @property
+    def ground_velocity(self):
+        """(T, 3) [m/s] the ground's velocity, or None (ground_displacement)."""
+        return self._ground("ground_velocity")
+
+    @property
+    def displacement_relative_to_ground(self):
+        """(T, N, 3) [m] each body's displacement less the ground's, or None
+        (no positions written, or no ground motion)."""
+        u, g = self.displacement, self.ground_displacement
+        return None if u is None or g is None else u - g[:, None, :]
+
+    @property
+    def velocity_relative_to_ground(self):
+        """(T, N, 3) [m/s] each body's velocity less the ground's, or None
+        (field ``velocity`` not written, or no ground motion)."""
+        v, g = self.velocity, self.ground_velocity
+        return None if v is None or g is None else v - g[:, None, :]
+
     def case(self) -> dict:
         """The resolved case (``/parameters/case`` as a dict), {} if absent."""
         return self.parameter_json("case") if "case" in self.parameters else {}

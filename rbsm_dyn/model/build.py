@@ -35,7 +35,8 @@ def build_model(case, mesh=None):
                                                      laws, rot0, bodies["body_pos0"])
     hist = Amplitudes()
     notes = interface_notes(case, mesh)
-    dof_kind, dof_value, dof_hist = constraints(case, mesh, groups, hist, notes)
+    dof_kind, dof_value, dof_hist, ground_hist, ground_dir = constraints(case, mesh, groups,
+                                                                         hist, notes)
     if case.plane is not None:
         # a plane model moves in x-y and turns about z (physics/plane.py); the
         # 3D solvers that serve it (output, Newton, modal) see z, rx, ry held
@@ -49,7 +50,7 @@ def build_model(case, mesh=None):
         law_dashpot=dashpot, law_branch_g=branch_g, law_branch_tau=branch_tau,
         poisson=poisson, warnings=tuple(notes), **bodies, **springs,
         dof_kind=dof_kind, dof_value=dof_value, dof_hist=dof_hist,
-        body_fext=fext, body_mext=mext, body_ffol=ffol, body_mfol=mfol,
+        ground_hist=ground_hist, ground_dir=ground_dir, body_fext=fext, body_mext=mext, body_ffol=ffol, body_mfol=mfol,
         body_load_hist=load_hist, gravity=gravity,
         hist_ptr=np.asarray(hist.ptr, dtype=IDX), hist_t=np.asarray(hist.t, float),
         hist_a=np.asarray(hist.a, float), groups=groups, materials=laws.materials, mesh=mesh,

@@ -263,7 +263,7 @@ def new_contact_state(model):
         pairs=np.zeros((0, 2), dtype=np.int32), slip=np.zeros((0, 3)),
         sep=np.zeros(0, dtype=np.int32), out=np.zeros((0, N_OUT)),
         ptr=np.zeros(n + 1, dtype=np.int64), entry=np.zeros(0, dtype=np.int64),
-        body_friction=np.zeros(n), body_dwrench=np.zeros((n, 6)), x_build=np.full((n, 3), np.inf), q_build=np.zeros((n, 4)),
+        body_friction=np.zeros(n), body_dwrench=np.zeros((n, 6)), x_build=np.full((n + 1, 3), np.inf), q_build=np.zeros((n, 4)),
         scratch=np.zeros((nblk, SCRATCH_ROWS(max_rows, max_faces), 3)))
 
 
@@ -274,22 +274,28 @@ def rebuild(model, state, force=False):
     cm = model.contact
     cs = state.contact
     n = model.n_bodies
+    # the ground half-space where the ground is now (its row n of body_pos
+    # moves with a ground_motion: physics/integrate.py)
+    ground = cm.ground.copy()
+    ground[3] += float(ground[:3] @ state.body_pos[n])
     if not force and cs.builds:
-        moved = np.linalg.norm(state.body_pos[:n] - cs.x_build, axis=1)
+        moved = np.linalg.norm(state.body_pos[:n] - cs.x_build[:n], axis=1)
         dot = np.abs(np.einsum("ij,ij->i", state.body_quat[:n], cs.q_build))
         moved += cm.radius * 2.0 * np.arccos(np.minimum(dot, 1.0))
+        if cm.has_ground:
+            # the ground's move towards or away from the cells
+            moved += abs(float(cm.ground[:3] @ (state.body_pos[n] - cs.x_build[n])))
         if moved.max(initial=0.0) <= 0.5 * cm.skin:
             return False
     active = neighbour_active(cm.spring_pair, len(cm.nbr_key), model.inelastic,
                               state.spring_kappa)
     pairs = broad_phase(state.body_pos, state.body_rot, cm.cell_loop_ptr, cm.loop_xyz,
                         cm.radius, cm.skin, cm.body_part, cm.allowed, cm.nbr_key, active,
-                        cm.ground, cm.has_ground)
-    cs.slip, cs.sep = carry_slip(cs.pairs, cs.slip, cs.sep, pairs, n)
+                        ground, cm.has_ground)
+    cs.slip, cs.sep, cs.out = carry_slip(cs.pairs, cs.slip, cs.sep, cs.out, pairs, n)
     cs.pairs = pairs
-    cs.out = np.zeros((len(pairs), N_OUT))
     cs.ptr, cs.entry = body_pairs(pairs, n)
-    cs.x_build = state.body_pos[:n].copy()
+    cs.x_build = state.body_pos.copy()          # (N+1, 3): the ground's row too
     cs.q_build = state.body_quat[:n].copy()
     cs.builds += 1
     return True

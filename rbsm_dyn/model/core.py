@@ -125,6 +125,11 @@ class Model:
     # row the dashpot time τ_d (L,) [s] (Kelvin's τ + Rayleigh's β) and the
     # Maxwell branches' shares g (L, M) of the instantaneous modulus and
     # times τ (L, M) [s] (laws.py viscous_laws)
+    # the ground's motion (model/loads.py _ground_motion): its velocity's
+    # amplitude table (1,) int32 (−1: the ground is at rest) and unit
+    # direction (3,); the ground is the bodies' row N (physics/integrate.py)
+    ground_hist: np.ndarray = field(default_factory=lambda: np.full(1, -1, dtype=np.int32))
+    ground_dir: np.ndarray = field(default_factory=lambda: np.zeros(3))
     law_dashpot: np.ndarray = field(default_factory=lambda: np.zeros(0))
     law_branch_g: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
     law_branch_tau: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))

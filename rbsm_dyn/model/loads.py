@@ -94,7 +94,9 @@ def interface_notes(case, mesh):
 
 
 def constraints(case, mesh, groups, hist, notes):
-    """Constraints and prescribed motion: dof_kind, dof_value, dof_hist (N, 6)."""
+    """Constraints and prescribed motion: dof_kind, dof_value, dof_hist (N,
+    6), and the ground's motion, ground_hist (1,) int32 (its velocity's
+    table, −1: at rest) and ground_dir (3,) (_ground_motion)."""
     n = mesh.n_cells
     dof_kind = np.zeros((n, 6), dtype=np.int8)
     dof_value = np.zeros((n, 6))
@@ -146,40 +148,35 @@ def constraints(case, mesh, groups, hist, notes):
                 dof_kind[ids, c] = kind
                 dof_value[ids, c] = vec[c]
                 dof_hist[ids, c] = h
+    ground_hist, ground_dir = np.full(1, -1, dtype=IDX), np.zeros(3)
     if case.ground_motion is not None:
-        _ground_motion(case, hist, dof_kind, dof_value, dof_hist, dof_item)
+        ground_hist[0], ground_dir[:] = _ground_motion(case, mesh, hist, dof_kind, dof_value,
+                                                       dof_hist, dof_item)
     _shared_bodies(dof_item, notes, list(case.boundary or []))
-    return dof_kind, dof_value, dof_hist
+    return dof_kind, dof_value, dof_hist, ground_hist, ground_dir
 
 
-def _ground_motion(case, hist, dof_kind, dof_value, dof_hist, dof_item):
-    """`ground_motion`: the components along its direction that the
-    `{group, fix}` supports hold become prescribed velocities, the ground's
+def _ground_motion(case, mesh, hist, dof_kind, dof_value, dof_hist, dof_item):
+    """`ground_motion`: the ground moves along its direction with the
     velocity v_g(t) (records.integrate: exact for the record linear between
-    its samples, at four points a step, linear between them) times the
-    direction's component; the rest stays fixed.  A velocity, not the
-    displacement: a table of displacements would make the velocity jump at
-    each of its points and the constraint's work of those jumps (½ m Δv²
-    each) would not be the kinetic energy it gives (2 % of the work on a
-    one-degree-of-freedom oscillator); the displacement is the velocity's
-    midpoint-rule integral, within (dt²/24) max|ȧ_g| of d_g.  A support by springs to the ground
-    ({face | surface, fix}) and the contact ground do not move yet: refused,
-    naming the item."""
+    its samples, at four points a step, linear between them); returns its
+    velocity's table and the unit direction.  The components along it that
+    the `{group, fix}` supports hold become prescribed velocities v_g times
+    the direction's component (the rest stays fixed), and the ground's own
+    row of the body arrays moves with it (physics/integrate.py), carrying
+    the supports by springs ({face | surface, fix}) and the contact ground.
+    A velocity, not the displacement: a table of displacements would make
+    the velocity jump at each of its points and the constraint's work of
+    those jumps (½ m Δv² each) would not be the kinetic energy it gives
+    (2 % of the work on a one-degree-of-freedom oscillator); the
+    displacement is the velocity's midpoint-rule integral, within (dt²/24)
+    max|ȧ_g| of d_g."""
     from ..case.boundary import FaceSupport, GroupFix
     gm = case.ground_motion
     at = ("ground_motion",)
     if case.solver.mode != "dynamic":
         raise case.error(at, "a ground motion needs solver.mode: dynamic")
     items = list(case.boundary or [])
-    for j, item in enumerate(items):
-        if isinstance(item, FaceSupport):
-            raise case.error(("boundary", j), "this support by springs to the ground "
-                             "({face | surface, fix}) does not move with ground_motion yet: "
-                             "hold the base cells as a group, {group: base, fix: all}")
-    if case.contact is not None and getattr(case.contact, "ground", None) is not None:
-        raise case.error(("contact", "ground"), "the contact ground does not move with "
-                         "ground_motion yet: make the ground a group of cells held by "
-                         "{group, fix}")
     direction = np.asarray(gm.direction, dtype=float)
     norm = float(np.linalg.norm(direction))
     if norm == 0.0:
@@ -200,9 +197,13 @@ def _ground_motion(case, hist, dof_kind, dof_value, dof_hist, dof_item):
         dof_value[rows, c] = direction[c]
         dof_hist[rows, c] = h
         moved += int(rows.sum())
-    if moved == 0:
-        raise case.error(at, "no {group, fix} support holds a component along its "
-                         "direction: nothing would move with the ground")
+    springs = any(isinstance(item, FaceSupport) for item in items)
+    ground = case.contact is not None and getattr(case.contact, "ground", None) is not None
+    if moved == 0 and not springs and not ground:
+        raise case.error(at, "nothing moves with the ground: no {group, fix} support holds "
+                         "a component along its direction, and there is no support by "
+                         "springs ({face | surface, fix}) and no contact ground")
+    return h, direction
 
 
 def ground_table(case):

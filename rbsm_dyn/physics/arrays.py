@@ -26,7 +26,9 @@ Model (static over a run)
                  (principal frame); body_load_hist (N,) int32; gravity (3,)
                  [m/s²]; dof_kind (N, 6) int8, dof_value (N, 6) [m/s or m],
                  dof_hist (N, 6) int32; amplitude tables hist_ptr, hist_t
-                 [s], hist_a
+                 [s], hist_a; the ground's motion (the ground row N of
+                 the BodyState moves with it): ground_hist (1,) int32 its
+                 velocity's table (−1: at rest), ground_dir (3,) [1]
 State (changes every step)
   BodyState      body_pos (N+1, 3) [m]; body_quat (N+1, 4); body_vel (N+1, 3)
                  [m/s] and body_angmom (N+1, 3) [kg m²/s] at the half step;
@@ -145,6 +147,8 @@ class Loads(NamedTuple):
     hist_ptr: np.ndarray
     hist_t: np.ndarray
     hist_a: np.ndarray
+    ground_hist: np.ndarray
+    ground_dir: np.ndarray
 
 
 class BodyState(NamedTuple):
@@ -339,7 +343,9 @@ class PlaneLoads(NamedTuple):
     dead (f_x, f_y, m_z); body_ffol (N, 3) or (0, 3) follower loads in the
     body's rest axes (they turn with it); body_load_hist (N,) int32;
     gravity (2,) [m/s²]; dof_kind (N, 3) int8, dof_value, dof_hist (N, 3)
-    of (x, y, θ); amplitude tables hist_ptr, hist_t [s], hist_a."""
+    of (x, y, θ); amplitude tables hist_ptr, hist_t [s], hist_a; the
+    ground's velocity table ground_hist (1,) int32 (−1: at rest) and
+    direction ground_dir (2,)."""
     body_fext: np.ndarray
     body_ffol: np.ndarray
     body_load_hist: np.ndarray
@@ -350,6 +356,8 @@ class PlaneLoads(NamedTuple):
     hist_ptr: np.ndarray
     hist_t: np.ndarray
     hist_a: np.ndarray
+    ground_hist: np.ndarray
+    ground_dir: np.ndarray
 
 
 class PlaneState(NamedTuple):

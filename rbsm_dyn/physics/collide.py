@@ -4,7 +4,8 @@ A scene that asks for contact (case ``contact``, model/contact.py) gets, on
 top of its springs, a penalty contact between every pair of convex cells
 that overlap and are not tied by springs (intact, or broken and still
 close: those act as contact on their own face, physics/inelastic.py), and
-between cells and a fixed ground half-space.
+between cells and a ground half-space (fixed, or moving with the case's
+ground_motion: the ground's row of the body arrays, physics/integrate.py).
 
 * Broad phase (``broad_phase``, serial, compiled): each cell's world
   bounding box and bounding sphere (radius r about its centroid), grown by
@@ -193,12 +194,15 @@ def broad_phase(body_pos, body_rot, cell_loop_ptr, loop_xyz, radius, skin, body_
 
 
 @nb.njit(**JIT)
-def carry_slip(old_pairs, old_slip, old_sep, pairs, n):
-    """Slip memory (P, 3) and separating face (P,) of the new pair list: a
-    pair that was in the old list keeps both (both lists ascending in
-    (a, b)), a new one starts at 0 and −1."""
+def carry_slip(old_pairs, old_slip, old_sep, old_out, pairs, n):
+    """Slip memory (P, 3), separating face (P,) and results (P, N_OUT) of
+    the new pair list: a pair that was in the old list keeps its slip, its
+    face and its slip spring's stiffness (O_KT, the step's energy of the
+    spring: _pair_force; both lists ascending in (a, b)), a new one starts
+    at 0, −1 and 0."""
     slip = np.zeros((pairs.shape[0], 3))
     sep = np.full(pairs.shape[0], -1, dtype=np.int32)
+    out = np.zeros((pairs.shape[0], N_OUT))
     nk = np.int64(n + 1)
     j = 0
     for p in range(pairs.shape[0]):
@@ -210,7 +214,8 @@ def carry_slip(old_pairs, old_slip, old_sep, pairs, n):
             slip[p, 1] = old_slip[j, 1]
             slip[p, 2] = old_slip[j, 2]
             sep[p] = old_sep[j]
-    return slip, sep
+            out[p, O_KT] = old_out[j, O_KT]
+    return slip, sep, out
 
 
 @nb.njit(**JIT)
@@ -334,6 +339,12 @@ def _pair_force(p, pairs, slip, sep, out, dt, body_pos, body_rot, body_vel, body
     n = radius.shape[0]
     a = pairs[p, 0]
     b = pairs[p, 1]
+    # the slip spring's stiffness at the last step and its stored energy
+    # ½ k_t |u|², which is released (booked as dissipated) when the pair
+    # parts or its contact area shrinks (below)
+    kt_old = out[p, O_KT]
+    u0, u1, u2 = slip[p, 0], slip[p, 1], slip[p, 2]
+    et_old = 0.5 * kt_old * (u0 * u0 + u1 * u1 + u2 * u2)
     for k in range(N_OUT):
         out[p, k] = 0.0
     if b < n:
@@ -343,15 +354,21 @@ def _pair_force(p, pairs, slip, sep, out, dt, body_pos, body_rot, body_vel, body
         reach = radius[a] + radius[b]
         if d0 * d0 + d1 * d1 + d2 * d2 >= reach * reach:
             slip[p, 0] = slip[p, 1] = slip[p, 2] = 0.0
+            out[p, O_W] = et_old
             return
         sep[p] = _separating_face(a, b, body_pos, body_rot, cell_face_ptr, face_plane,
                                   vert_ptr, vert_xyz, radius, sep[p])
         if sep[p] >= 0:
             slip[p, 0] = slip[p, 1] = slip[p, 2] = 0.0
+            out[p, O_W] = et_old
             return
+    # the ground half-space n·x ≤ d moves with the ground's row of body_pos
+    # (at rest at 0 unless the case has a ground_motion: integrate.py)
+    gd = ground[3] + ground[0] * body_pos[n, 0] + ground[1] * body_pos[n, 1] \
+        + ground[2] * body_pos[n, 2]
     if b == n:
         vol, c0, c1, c2, s0, s1, s2, area = overlap_halfspace(
-            a, body_pos[a], body_rot[a], ground[:3], ground[3], cell_face_ptr, loop_ptr,
+            a, body_pos[a], body_rot[a], ground[:3], gd, cell_face_ptr, loop_ptr,
             loop_xyz, face_plane, radius, scratch)
     else:
         vol, c0, c1, c2, s0, s1, s2, area = overlap(
@@ -359,6 +376,7 @@ def _pair_force(p, pairs, slip, sep, out, dt, body_pos, body_rot, body_vel, body
             loop_ptr, loop_xyz, face_plane, radius, scratch)
     if not (vol > 0.0 and area > 0.0):
         slip[p, 0] = slip[p, 1] = slip[p, 2] = 0.0
+        out[p, O_W] = et_old
         return
     n0, n1, n2 = s0 / area, s1 / area, s2 / area
     depth = vol / area
@@ -384,7 +402,7 @@ def _pair_force(p, pairs, slip, sep, out, dt, body_pos, body_rot, body_vel, body
     # closest to ∓n (a face pressed by an edge or a corner of the other)
     fn = kpa * vol
     if b == n:
-        zbar = ground[3] - (ground[0] * c0 + ground[1] * c1 + ground[2] * c2)
+        zbar = gd - (ground[0] * c0 + ground[1] * c1 + ground[2] * c2)
     else:
         zbar = _face_depth(a, b, n0, n1, n2, c0, c1, c2, body_pos, body_rot, cell_face_ptr,
                            face_plane)
@@ -400,6 +418,11 @@ def _pair_force(p, pairs, slip, sep, out, dt, body_pos, body_rot, body_vel, body
         v0 -= body_vel[b, 0] + wb1 * rb2 - wb2 * rb1
         v1 -= body_vel[b, 1] + wb2 * rb0 - wb0 * rb2
         v2 -= body_vel[b, 2] + wb0 * rb1 - wb1 * rb0
+    else:
+        # the ground translates (its row of body_vel: 0 unless it moves)
+        v0 -= body_vel[n, 0]
+        v1 -= body_vel[n, 1]
+        v2 -= body_vel[n, 2]
     vn = v0 * n0 + v1 * n1 + v2 * n2
     fd = 0.0
     if zeta > 0.0:
@@ -413,7 +436,6 @@ def _pair_force(p, pairs, slip, sep, out, dt, body_pos, body_rot, body_vel, body
         fn += fd
     # slip spring: the old one turned into the present tangent plane
     # (projected, its length kept), plus the tangential motion of the step
-    u0, u1, u2 = slip[p, 0], slip[p, 1], slip[p, 2]
     un = u0 * n0 + u1 * n1 + u2 * n2
     old = math.sqrt(u0 * u0 + u1 * u1 + u2 * u2)
     u0 -= un * n0
@@ -424,17 +446,35 @@ def _pair_force(p, pairs, slip, sep, out, dt, body_pos, body_rot, body_vel, body
         u0 *= old / new
         u1 *= old / new
         u2 *= old / new
+    # k_t follows the contact area, so ½ k_t |u|² is no potential: a
+    # stiffer spring at the same u would create energy.  The force is kept
+    # when the area grows (the new part comes in unstressed: u scaled by
+    # k_old/k_t) and falls with k_t when it shrinks (the part that left
+    # takes its share); either way the spring's energy falls, by
+    # E_old (1 − k_min/k_max), booked as dissipated with the friction, so
+    # that the contact never makes energy: the incremental shear force of
+    # Cundall & Strack (1979), F_t += −k_t Δu, with a lost area's share
+    # dropped (docs/theory.md, "Contact between cells").
+    diss = 0.0
+    if kt_old > 0.0 and kt != kt_old:
+        if kt > kt_old:
+            ratio = kt_old / kt
+            u0 *= ratio
+            u1 *= ratio
+            u2 *= ratio
+        else:
+            ratio = kt / kt_old
+        diss = et_old * (1.0 - ratio)
     u0 += (v0 - vn * n0) * dt
     u1 += (v1 - vn * n1) * dt
     u2 += (v2 - vn * n2) * dt
     f0, f1, f2 = -kt * u0, -kt * u1, -kt * u2
     ft = math.sqrt(f0 * f0 + f1 * f1 + f2 * f2)
     fmax = mu * fn
-    diss = 0.0
     if ft > fmax:
         r = fmax / ft if ft > 0.0 else 0.0
         # the slip takes the excess (return to the Coulomb cone)
-        diss = fmax * (ft - fmax) / kt
+        diss += fmax * (ft - fmax) / kt
         f0 *= r
         f1 *= r
         f2 *= r
@@ -532,12 +572,17 @@ def contact_gather(contact, bodies, bs, dt, overwrite, commit):
     body_angmom = bs.body_angmom
     body_rot = bs.body_rot
     body_wrench = bs.body_wrench
+    body_support = bs.body_support
     body_damp = bs.body_damp
     body_inertia = bodies.body_inertia
     n = ptr.shape[0] - 1
+    # the ground's velocity (its row of body_vel: 0 unless it moves)
+    vg0, vg1, vg2 = body_vel[n, 0], body_vel[n, 1], body_vel[n, 2]
     for i in nb.prange(n):
         w0 = w1 = w2 = w3 = w4 = w5 = 0.0
         d0 = d1 = d2 = d3 = d4 = d5 = 0.0
+        s0 = s1 = s2 = 0.0
+        gdv = 0.0
         wf = 0.0
         for e in range(ptr[i], ptr[i + 1]):
             p = entry[e] >> 1
@@ -559,6 +604,14 @@ def contact_gather(contact, bodies, bs, dt, overwrite, commit):
             g0 = sgn * out[p, O_D]
             g1 = sgn * out[p, O_D + 1]
             g2 = sgn * out[p, O_D + 2]
+            if pairs[p, 1] == n:
+                # the ground's force is a support's (the reaction, and the
+                # moving ground's work f · v_g: integrate.py); its dashpot
+                # dissipates −D · (v − v_g), booked below against v alone
+                s0 += f0
+                s1 += f1
+                s2 += f2
+                gdv += g0 * vg0 + g1 * vg1 + g2 * vg2
             d0 += g0
             d1 += g1
             d2 += g2
@@ -572,6 +625,9 @@ def contact_gather(contact, bodies, bs, dt, overwrite, commit):
             body_wrench[i, 3] = w3
             body_wrench[i, 4] = w4
             body_wrench[i, 5] = w5
+            body_support[i, 0] = s0
+            body_support[i, 1] = s1
+            body_support[i, 2] = s2
         else:
             body_wrench[i, 0] += w0
             body_wrench[i, 1] += w1
@@ -579,8 +635,12 @@ def contact_gather(contact, bodies, bs, dt, overwrite, commit):
             body_wrench[i, 3] += w3
             body_wrench[i, 4] += w4
             body_wrench[i, 5] += w5
+            body_support[i, 0] += s0
+            body_support[i, 1] += s1
+            body_support[i, 2] += s2
         if commit:
             body_friction[i] += wf
+            body_damp[i] += dt * gdv
             o0, o1, o2 = _spin(i, body_rot, body_angmom, body_inertia)
             q = body_dwrench[i]
             body_damp[i] -= 0.5 * dt * ((q[0] + d0) * body_vel[i, 0] + (q[1] + d1) * body_vel[i, 1]
@@ -598,6 +658,7 @@ def contact_step(contact, bodies, bs, dt, commit):
     if contact.pairs.shape[0] == 0:
         if overwrite:
             bs.body_wrench[:] = 0.0
+            bs.body_support[:] = 0.0
         if commit:
             contact_gather(contact, bodies, bs, dt, flag(False), commit)
         return

@@ -69,6 +69,32 @@ def amplitude(h, t, hist_ptr, hist_t, hist_a):
 
 
 @nb.njit(inline="always", **JIT)
+def ground_step(t, dt, ground_hist, ground_dir, hist_ptr, hist_t, hist_a, body_vel, n, k):
+    """Component k of the moving ground's velocity over the step, v_g(t +
+    dt/2) = ground_dir[k] × its table, and the weight w = ½ (v_old + v_new)
+    dt [m] of the support forces' work (the trapezoid of ∫ f · dx_g over
+    the step's two half steps, as a constraint's r v̄ dt); (0, 0) while the
+    ground is at rest (ground_hist −1).  The ground is row n of the body
+    arrays: the support springs and the contact ground take its position
+    (physics/springs.py, collide.py)."""
+    if ground_hist[0] < 0:
+        return 0.0, 0.0
+    v_new = ground_dir[k] * amplitude(ground_hist[0], t + 0.5 * dt, hist_ptr, hist_t, hist_a)
+    return v_new, 0.5 * (body_vel[n, k] + v_new) * dt
+
+
+@nb.njit(inline="always", **JIT)
+def move_ground(dt, v0, v1, v2, body_pos, body_vel, n):
+    """Drift of the ground's row n with its velocity at t + dt/2."""
+    body_vel[n, 0] = v0
+    body_vel[n, 1] = v1
+    body_vel[n, 2] = v2
+    body_pos[n, 0] += v0 * dt
+    body_pos[n, 1] += v1 * dt
+    body_pos[n, 2] += v2 * dt
+
+
+@nb.njit(inline="always", **JIT)
 def _inv_inertia_world(R, inertia, r, c):
     """Entry (r, c) of A = R I⁻¹ Rᵀ, the world inverse inertia."""
     return (R[r, 0] * R[c, 0] / inertia[0] + R[r, 1] * R[c, 1] / inertia[1]
@@ -290,7 +316,7 @@ def _dynamic_bodies_parallel(t, stepping, bodies, loads, bs):
     dt, damping_alpha, damping_local = stepping
     body_mass, body_inertia, body_pos0, body_quat0 = bodies
     (body_fext, body_mext, body_ffol, body_mfol, body_load_hist, gravity, dof_kind, dof_value,
-     dof_hist, hist_ptr, hist_t, hist_a) = loads
+     dof_hist, hist_ptr, hist_t, hist_a, ground_hist, ground_dir) = loads
     (body_pos, body_quat, body_vel, body_angmom, body_rot, body_dq, body_wrench, body_support,
      body_work, body_damp, body_reaction, spring_force) = bs
     n = body_mass.shape[0]
@@ -300,6 +326,12 @@ def _dynamic_bodies_parallel(t, stepping, bodies, loads, bs):
     dt_c = dt / (1.0 + c)
     follow = body_ffol.shape[0] > 0
     local = damping_local > 0.0
+    # a moving ground: its velocity over the step and the weights of the
+    # work of the forces that tie bodies to it (support springs, contact)
+    moving = ground_hist[0] >= 0
+    g0, gw0 = ground_step(t, dt, ground_hist, ground_dir, hist_ptr, hist_t, hist_a, body_vel, n, 0)
+    g1, gw1 = ground_step(t, dt, ground_hist, ground_dir, hist_ptr, hist_t, hist_a, body_vel, n, 1)
+    g2, gw2 = ground_step(t, dt, ground_hist, ground_dir, hist_ptr, hist_t, hist_a, body_vel, n, 2)
     # by the parts of partition.py (bodies i·PARTS // n = p): the same chunks
     # as the spring pass's phase 0, so that a thread can keep its bodies
     for p in nb.prange(PARTS):
@@ -312,9 +344,15 @@ def _dynamic_bodies_parallel(t, stepping, bodies, loads, bs):
                                     body_pos, body_pos0, body_vel, body_fext, body_ffol,
                                     gravity, dof_kind, dof_value, dof_hist, hist_ptr, hist_t,
                                     hist_a, body_reaction)
+            if moving:
+                # the ground's work through the body's supports: f · v̄_g dt
+                work += body_support[i, 0] * gw0 + body_support[i, 1] * gw1 \
+                    + body_support[i, 2] * gw2
             _rotate(i, dt, keep, dt_c, damping_alpha, damping_local, follow, local, amp, R,
                     work, damp, body_wrench, body_inertia, body_angmom, body_mext, body_mfol,
                     dof_kind, body_quat, body_quat0, body_rot, body_dq, body_work, body_damp)
+    if moving:
+        move_ground(dt, g0, g1, g2, body_pos, body_vel, n)
 
 
 @nb.njit(**JIT)
@@ -323,7 +361,7 @@ def _dynamic_bodies_serial(t, stepping, bodies, loads, bs):
     dt, damping_alpha, damping_local = stepping
     body_mass, body_inertia, body_pos0, body_quat0 = bodies
     (body_fext, body_mext, body_ffol, body_mfol, body_load_hist, gravity, dof_kind, dof_value,
-     dof_hist, hist_ptr, hist_t, hist_a) = loads
+     dof_hist, hist_ptr, hist_t, hist_a, ground_hist, ground_dir) = loads
     (body_pos, body_quat, body_vel, body_angmom, body_rot, body_dq, body_wrench, body_support,
      body_work, body_damp, body_reaction, spring_force) = bs
     n = body_mass.shape[0]
@@ -333,6 +371,10 @@ def _dynamic_bodies_serial(t, stepping, bodies, loads, bs):
     dt_c = dt / (1.0 + c)
     follow = body_ffol.shape[0] > 0
     local = damping_local > 0.0
+    moving = ground_hist[0] >= 0
+    g0, gw0 = ground_step(t, dt, ground_hist, ground_dir, hist_ptr, hist_t, hist_a, body_vel, n, 0)
+    g1, gw1 = ground_step(t, dt, ground_hist, ground_dir, hist_ptr, hist_t, hist_a, body_vel, n, 1)
+    g2, gw2 = ground_step(t, dt, ground_hist, ground_dir, hist_ptr, hist_t, hist_a, body_vel, n, 2)
     for i in range(n):
         amp = amplitude(body_load_hist[i], t, hist_ptr, hist_t, hist_a)
         R = body_rot[i]                      # at t, as the spring forces
@@ -341,9 +383,14 @@ def _dynamic_bodies_serial(t, stepping, bodies, loads, bs):
                                 body_pos, body_pos0, body_vel, body_fext, body_ffol,
                                 gravity, dof_kind, dof_value, dof_hist, hist_ptr, hist_t,
                                 hist_a, body_reaction)
+        if moving:
+            work += body_support[i, 0] * gw0 + body_support[i, 1] * gw1 \
+                + body_support[i, 2] * gw2
         _rotate(i, dt, keep, dt_c, damping_alpha, damping_local, follow, local, amp, R,
                 work, damp, body_wrench, body_inertia, body_angmom, body_mext, body_mfol,
                 dof_kind, body_quat, body_quat0, body_rot, body_dq, body_work, body_damp)
+    if moving:
+        move_ground(dt, g0, g1, g2, body_pos, body_vel, n)
 
 
 @nb.njit(**JIT)
@@ -408,7 +455,7 @@ def _synchronized_parallel(t, dt, bodies, loads, bs, out):
     # the fields into locals before the loop (physics/arrays.py)
     body_mass, body_inertia, body_pos0, body_quat0 = bodies
     (body_fext, body_mext, body_ffol, body_mfol, body_load_hist, gravity, dof_kind, dof_value,
-     dof_hist, hist_ptr, hist_t, hist_a) = loads
+     dof_hist, hist_ptr, hist_t, hist_a, ground_hist, ground_dir) = loads
     (body_pos, body_quat, body_vel, body_angmom, body_rot, body_dq, body_wrench, body_support,
      body_work, body_damp, body_reaction, spring_force) = bs
     out_vel, out_angmom, out_reaction = out
@@ -450,7 +497,7 @@ def _synchronized_serial(t, dt, bodies, loads, bs, out):
     # the fields into locals before the loop (physics/arrays.py)
     body_mass, body_inertia, body_pos0, body_quat0 = bodies
     (body_fext, body_mext, body_ffol, body_mfol, body_load_hist, gravity, dof_kind, dof_value,
-     dof_hist, hist_ptr, hist_t, hist_a) = loads
+     dof_hist, hist_ptr, hist_t, hist_a, ground_hist, ground_dir) = loads
     (body_pos, body_quat, body_vel, body_angmom, body_rot, body_dq, body_wrench, body_support,
      body_work, body_damp, body_reaction, spring_force) = bs
     out_vel, out_angmom, out_reaction = out

@@ -27,7 +27,7 @@ from .inelastic import (add_moment, clear_moment, finish_cell_stress, plastic_of
                         spring_law)
 from .laws import BROKEN, P_MODEL
 from .laws.plastic import CONTINUUM
-from .integrate import FIXED, FREE, VELOCITY, amplitude
+from .integrate import FIXED, FREE, VELOCITY, amplitude, ground_step
 from .springs import part_range
 from ..partition import PARTS
 
@@ -467,7 +467,7 @@ def _bodies_parallel(t, stepping, pbodies, ploads, ps):
     dt, damping_alpha, damping_local = stepping
     body_mass, body_jz, body_pos0 = pbodies
     (body_fext, body_ffol, body_load_hist, gravity, dof_kind, dof_value, dof_hist, hist_ptr,
-     hist_t, hist_a) = ploads
+     hist_t, hist_a, ground_hist, ground_dir) = ploads
     (body_pos, body_theta, body_cs, body_vel, body_omega, body_wrench, body_support,
      body_work, body_damp, body_reaction, spring_force) = ps
     n = body_mass.shape[0]
@@ -476,6 +476,9 @@ def _bodies_parallel(t, stepping, pbodies, ploads, ps):
     dt_c = dt / (1.0 + c)
     follow = body_ffol.shape[0] > 0
     local = damping_local > 0.0
+    moving = ground_hist[0] >= 0
+    g0, gw0 = ground_step(t, dt, ground_hist, ground_dir, hist_ptr, hist_t, hist_a, body_vel, n, 0)
+    g1, gw1 = ground_step(t, dt, ground_hist, ground_dir, hist_ptr, hist_t, hist_a, body_vel, n, 1)
     for p in nb.prange(PARTS):
         i0, i1 = part_range(p, PARTS, n)
         for i in range(i0, i1):
@@ -485,9 +488,14 @@ def _bodies_parallel(t, stepping, pbodies, ploads, ps):
                                     body_support, body_mass, body_pos, body_pos0, body_vel,
                                     body_fext, body_ffol, gravity, dof_kind, dof_value,
                                     dof_hist, hist_ptr, hist_t, hist_a, body_reaction)
+            if moving:
+                # the ground's work through the body's supports (integrate.py)
+                work += body_support[i, 0] * gw0 + body_support[i, 1] * gw1
             _turn(i, dt, keep, dt_c, damping_alpha, damping_local, follow, local, amp, work,
                   damp, body_wrench, body_jz, body_fext, body_ffol, dof_kind, body_theta,
                   body_cs, body_omega, body_work, body_damp)
+    if moving:
+        _move_ground(dt, g0, g1, body_pos, body_vel, n)
 
 
 @nb.njit(**JIT)
@@ -495,7 +503,7 @@ def _bodies_serial(t, stepping, pbodies, ploads, ps):
     dt, damping_alpha, damping_local = stepping
     body_mass, body_jz, body_pos0 = pbodies
     (body_fext, body_ffol, body_load_hist, gravity, dof_kind, dof_value, dof_hist, hist_ptr,
-     hist_t, hist_a) = ploads
+     hist_t, hist_a, ground_hist, ground_dir) = ploads
     (body_pos, body_theta, body_cs, body_vel, body_omega, body_wrench, body_support,
      body_work, body_damp, body_reaction, spring_force) = ps
     n = body_mass.shape[0]
@@ -504,6 +512,9 @@ def _bodies_serial(t, stepping, pbodies, ploads, ps):
     dt_c = dt / (1.0 + c)
     follow = body_ffol.shape[0] > 0
     local = damping_local > 0.0
+    moving = ground_hist[0] >= 0
+    g0, gw0 = ground_step(t, dt, ground_hist, ground_dir, hist_ptr, hist_t, hist_a, body_vel, n, 0)
+    g1, gw1 = ground_step(t, dt, ground_hist, ground_dir, hist_ptr, hist_t, hist_a, body_vel, n, 1)
     for i in range(n):
         amp = amplitude(body_load_hist[i], t, hist_ptr, hist_t, hist_a)
         work, damp = _translate(i, t, dt, keep, dt_c, damping_alpha, damping_local, follow,
@@ -511,9 +522,22 @@ def _bodies_serial(t, stepping, pbodies, ploads, ps):
                                 body_support, body_mass, body_pos, body_pos0, body_vel,
                                 body_fext, body_ffol, gravity, dof_kind, dof_value,
                                 dof_hist, hist_ptr, hist_t, hist_a, body_reaction)
+        if moving:
+            work += body_support[i, 0] * gw0 + body_support[i, 1] * gw1
         _turn(i, dt, keep, dt_c, damping_alpha, damping_local, follow, local, amp, work,
               damp, body_wrench, body_jz, body_fext, body_ffol, dof_kind, body_theta,
               body_cs, body_omega, body_work, body_damp)
+    if moving:
+        _move_ground(dt, g0, g1, body_pos, body_vel, n)
+
+
+@nb.njit(inline="always", **JIT)
+def _move_ground(dt, v0, v1, body_pos, body_vel, n):
+    """Drift of the ground's row n with its velocity at t + dt/2."""
+    body_vel[n, 0] = v0
+    body_vel[n, 1] = v1
+    body_pos[n, 0] += v0 * dt
+    body_pos[n, 1] += v1 * dt
 
 
 @nb.njit(**JIT)

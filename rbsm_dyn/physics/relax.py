@@ -135,7 +135,7 @@ def _relax_bodies_parallel(lam, c, reset, bodies, loads, bs, relax):
     # the fields into locals before the prange (physics/arrays.py)
     body_mass_real, body_inertia, body_pos0, body_quat0 = bodies
     (body_fext, body_mext, body_ffol, body_mfol, body_load_hist, gravity, dof_kind, dof_value,
-     dof_hist, hist_ptr, hist_t, hist_a) = loads
+     dof_hist, hist_ptr, hist_t, hist_a, ground_hist, ground_dir) = loads
     (body_pos, body_quat, body_vel, body_angmom, body_rot, body_dq, body_wrench, body_support,
      body_work, body_damp, body_reaction, spring_force) = bs
     (fict_mass, fict_inertia, arm_length, kind, beta, body_resid, body_theta, body_rprev,
@@ -154,7 +154,7 @@ def _relax_bodies_parallel(lam, c, reset, bodies, loads, bs, relax):
 def _relax_bodies_serial(lam, c, reset, bodies, loads, bs, relax):
     body_mass_real, body_inertia, body_pos0, body_quat0 = bodies
     (body_fext, body_mext, body_ffol, body_mfol, body_load_hist, gravity, dof_kind, dof_value,
-     dof_hist, hist_ptr, hist_t, hist_a) = loads
+     dof_hist, hist_ptr, hist_t, hist_a, ground_hist, ground_dir) = loads
     (body_pos, body_quat, body_vel, body_angmom, body_rot, body_dq, body_wrench, body_support,
      body_work, body_damp, body_reaction, spring_force) = bs
     (fict_mass, fict_inertia, arm_length, kind, beta, body_resid, body_theta, body_rprev,

@@ -192,7 +192,9 @@ def _write_contact(c, cs):
     for a in CONTACT_BODY_ARRAYS:
         arr = getattr(cs, a)
         if arr.size:
-            c[a][...] = arr
+            # (a file of an older rbsm_dyn has no ground row in x_build:
+            # its ground is at rest, and the restore puts the row back)
+            c[a][...] = arr[:c[a].shape[0]]
     c["n_pairs"][()] = np.int64(n_pairs)
     c["builds"][()] = np.int64(cs.builds)
 
@@ -217,6 +219,9 @@ def _restore_contact(state, model, saved, path):
     for a in CONTACT_PAIR_ARRAYS + CONTACT_BODY_ARRAYS:
         arr = getattr(cs, a)
         got = saved[a]
+        if a == "x_build" and got.shape[0] == arr.shape[0] - 1:
+            # an older checkpoint: no ground row (the ground was at rest)
+            got = np.vstack([got, state.body_pos[-1:]])
         if got.shape[1:] != arr.shape[1:] or got.dtype != arr.dtype or \
                 (a in CONTACT_BODY_ARRAYS and got.shape != arr.shape):
             raise RestartError(f"--restart {path}: checkpoint contact array {a} has shape "

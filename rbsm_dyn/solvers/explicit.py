@@ -236,7 +236,20 @@ def external_work(model, state, w_steps, vel=None):
         w += float(np.sum(follower_half_step_work(model, state)))
     if vel is not None:
         w += constraint_half_step_work(model, state, vel)
+    w += ground_half_step_work(model, state)
     return w
+
+
+def ground_half_step_work(model, state):
+    """Work [J] of a moving ground through the supports and contacts that
+    tie bodies to it, over the half step from the last kick to the present
+    frame, ½ dt f_N · v_g,N−1/2 (f_N the support forces, body_support): the
+    body pass books f_n · ½ (v_g,n−1/2 + v_g,n+1/2) dt per step
+    (physics/integrate.py), the trapezoid of ∫ f · dx_g."""
+    if model.ground_hist[0] < 0:
+        return 0.0
+    n = model.n_bodies
+    return float(0.5 * state.dt * np.sum(state.body_support[:n] @ state.body_vel[n]))
 
 
 def constraint_half_step_work(model, state, vel):

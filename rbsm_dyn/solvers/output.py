@@ -282,6 +282,25 @@ def strain_energy_of(m, state):
     return strain_energy(model_arrays(m)[1], body_state(state), history(state, opt))
 
 
+def observable_units(case, model, extra=()):
+    """The observables a history holds, with their units: the energies
+    (docs/history.md), contact friction and viscous work where the model
+    has them, the ground's displacement and velocity along its direction
+    [m, m/s] in a case with a ground_motion (History.ground_displacement),
+    and `extra` ((name, unit) pairs of a solver)."""
+    units = {"kinetic": "J", "strain": "J", "external_work": "J", "damping": "J",
+             "plastic": "J", "fracture": "J", "n_broken": "1", "crack_area": "m2"}
+    if model.contact is not None:
+        units["contact_friction"] = "J"
+    if model.viscous:
+        units["viscous"] = "J"
+    if getattr(case, "ground_motion", None) is not None:
+        units["ground_displacement"] = "m"
+        units["ground_velocity"] = "m/s"
+    units.update(dict(extra))
+    return units
+
+
 class Recorder:
     """Opens the history, writes the static part, appends frames."""
 
@@ -355,14 +374,7 @@ class Recorder:
             else:
                 tail = (m.n_bodies,) + tail
             w.add_series(path_, tail, dt, unit)
-        self.observables = {"kinetic": "J", "strain": "J", "external_work": "J",
-                            "damping": "J", "plastic": "J", "fracture": "J",
-                            "n_broken": "1", "crack_area": "m2"}
-        if m.contact is not None:
-            self.observables["contact_friction"] = "J"
-        if m.viscous:
-            self.observables["viscous"] = "J"
-        self.observables.update(dict(extra_observables))
+        self.observables = observable_units(case, m, extra_observables)
         for name, unit in self.observables.items():
             w.add_series(f"observables/{name}", (), "f8", unit)
         for name, p in self.probes.items():
@@ -386,14 +398,7 @@ class Recorder:
         self.plan = probe_plan(model, self.probes, case)
         self.levers = (surface_load_levers(case, model) if "cell_stress" in self.fields
                        else None)
-        self.observables = {"kinetic": "J", "strain": "J", "external_work": "J",
-                            "damping": "J", "plastic": "J", "fracture": "J",
-                            "n_broken": "1", "crack_area": "m2"}
-        if model.contact is not None:
-            self.observables["contact_friction"] = "J"
-        if model.viscous:
-            self.observables["viscous"] = "J"
-        self.observables.update(dict(extra_observables))
+        self.observables = observable_units(case, model, extra_observables)
         self.writer = HistoryWriter.reopen(path, frames=frames, lock=lock)
         self.writer.set_buffering(**frame_buffer(case))
         expected = {FIELD_SERIES[n][0] for n in self.fields} | \
@@ -528,6 +533,10 @@ class Recorder:
                 values[path_] = cell_stress(m, state, extra=extra)
         obs = self.spring_observables(state)
         obs.update(observables)
+        if "ground_displacement" in self.observables:
+            e = self.ground_motion(time, "displacement")
+            obs["ground_displacement"] = float(e @ self._ground[3])
+            obs["ground_velocity"] = float(self.ground_motion(time, "velocity") @ self._ground[3])
         obs.update(self.probe_values(state, vel, omega, time, amp_load))
         for name, val in obs.items():
             values[f"observables/{name}"] = val

@@ -73,7 +73,8 @@ def plane_arrays(model):
     cols = [0, 1, 5]
     loads = PlaneLoads(f64(fext), f64(ffol), m.body_load_hist, f64(m.gravity[:2]),
                        f64(m.dof_kind[:, cols]), f64(m.dof_value[:, cols]),
-                       f64(m.dof_hist[:, cols]), m.hist_ptr, m.hist_t, m.hist_a)
+                       f64(m.dof_hist[:, cols]), m.hist_ptr, m.hist_t, m.hist_a,
+                       m.ground_hist, f64(m.ground_dir[:2]))
     got = (bodies, springs, loads)
     model.__dict__["_plane_arrays"] = got
     return got
