@@ -216,13 +216,18 @@ output:
 
 
 def test_restart_is_bitwise(tmp_path):
-    """A run with Maxwell branches and a dashpot continued from its
-    checkpoint ends in the uninterrupted run's state bit for bit."""
+    """A run with Maxwell branches and a dashpot, on a base shaken by a
+    ground motion, continued from its checkpoint ends in the
+    uninterrupted run's state bit for bit (the ground's row too)."""
     from rbsm_dyn.__main__ import main
     from rbsm_dyn.solvers.checkpoint import ARRAYS, read_checkpoint
+    record = tmp_path / "shake.csv"
+    tr = np.linspace(0.0, 0.06, 61)
+    np.savetxt(record, np.column_stack([tr, 5.0 * np.sin(300.0 * tr)]), delimiter=",")
     text = lambda end: bar("{kind: prony, terms: [[3.0e5, 0.01], [2.0e5, 0.05]]}", """
   - {group: base, fix: all}""", f"{{mode: dynamic, end_time: {end}, damping: {{beta: 1.0e-4}}}}",
                            "initial: [{group: top, velocity: [0.01, 0.02, 0.03]}]\n"
+                           f"ground_motion: {{file: {record}, baseline: none, direction: [1, 0, 0]}}\n"
                            "output: {interval: 0.001}")
     ref_case, case = tmp_path / "ref.yaml", tmp_path / "case.yaml"
     ref_case.write_text(text(0.06))
@@ -235,6 +240,7 @@ def test_restart_is_bitwise(tmp_path):
     got, _ = read_checkpoint(out)
     want, _ = read_checkpoint(ref)
     assert np.abs(want["spring_q"]).max() > 0.0
+    assert abs(want["body_pos"][-1, 0]) > 0.0         # the ground has moved
     for name in ARRAYS + ("step", "dt"):
         assert np.array_equal(got[name], want[name]), name
 
@@ -273,10 +279,15 @@ def test_what_does_not_combine_is_refused():
                    .replace("poisson: 0.0,", "poisson: 0.0, rupture: {strain: 0.01},"))
 
 
-def test_threads_give_the_same_numbers(thread_states):
+def test_threads_give_the_same_numbers(thread_states, tmp_path):
     """Above SERIAL_SPRINGS the viscous pass runs phase by phase in the
-    springs' schedule (no atomics): 1 and 2 threads end bit for bit alike."""
+    springs' schedule (no atomics): 1 and 2 threads end bit for bit alike,
+    with the face's support springs moving with a ground motion (the
+    ground's work booked per body, physics/integrate.py)."""
     from rbsm_dyn.solvers.checkpoint import ARRAYS
+    record = tmp_path / "shake.csv"
+    tr = np.linspace(0.0, 2.0e-3, 41)
+    np.savetxt(record, np.column_stack([tr, 50.0 * np.sin(3000.0 * tr)]), delimiter=",")
     text = f"""
 name: threads
 domain: {{box: [[0, 0, 0], [1.0, 0.5, 0.5]]}}
@@ -285,11 +296,13 @@ materials: {{m: {{density: {RHO}, young: {E}, poisson: 0.2,
                  viscoelastic: {{kind: prony, terms: [[3.0e5, 1.0e-3], [2.0e5, 1.0e-2]]}}}}}}
 boundary: [{{face: xmin, fix: all}}]
 initial: [{{velocity: [0, 0, -0.5], angular_velocity: [0, 0, 1.0]}}]
+ground_motion: {{file: {record}, baseline: none, direction: [0, 0, 1]}}
 solver: {{mode: dynamic, end_time: 2.0e-3, damping: {{beta: 2.0e-5}}}}
 """
     a, b = thread_states(text)
     assert a["spring_q"].shape[0] >= 4096
     assert np.abs(a["spring_q"]).max() > 0.0
+    assert abs(a["body_pos"][-1, 2]) > 0.0           # the ground has moved
     for name in ARRAYS:
         assert np.array_equal(a[name], b[name]), name
 

@@ -24,7 +24,10 @@ RUN_KERNELS = {
     "plane": (("physics.plane", "run_plane"), ("physics.integrate", "synchronized_momenta"),
               ("model.stable_step", "_scaled_row_sums")),
     "relaxation": (("physics.relax", "run_relax"),),
-    # contact between cells (case key contact): on top of its run kind's
+    # on top of a 3D dynamic run's: springs that yield, break or touch
+    # (materials' yield or rupture, cuts, interfaces) and contact between
+    # cells (case key contact)
+    "inelastic": (("physics.inelastic", "inelastic_spring_pass"),),
     "contact": (("physics.collide", "contact_step"),),
     "newton": (("solvers.assembly", "_assemble"),),
     "linear": (("physics.passes", "spring_forces"),),
@@ -35,14 +38,15 @@ RUN_KERNELS = {
 #: folder): a small scene's on the 2-core sandbox since issue 26 compiles
 #: only the passes a run uses (benchmarks/results/kernel_interface.md: cold
 #: runs of cantilever_static 23 s, bar_wave 28 s, cantilever_modes 13 s in
-#: all, about 2 s of it import); a large scene with threaded inelastic
-#: passes takes minutes (brazilian_disc 148 s), which the heartbeat covers
+#: all, about 2 s of it import).  The threaded inelastic and contact passes
+#: come on top (benchmarks/results/compile.md: of cases/impact_plate.yaml's
+#: cold 276 s, the inelastic spring pass's two variants took about 200 s,
+#: the contact passes and their broad phase about 50 s); the heartbeat
+#: covers them
 COMPILE_SECONDS = {"build": 5.0, "dynamic": 20.0, "plane": 30.0, "relaxation": 15.0,
                    "newton": 30.0,
                    "linear": 6.0, "modal": 6.0,
-                   # the contact passes: cases/impact_plate.yaml's cold run
-                   # took 276 s, its warm run 5 s (2-core sandbox, git 8ec5d0f)
-                   "contact": 230.0}
+                   "inelastic": 200.0, "contact": 50.0}
 
 
 def kernel_is_cold(dispatcher):
@@ -71,11 +75,25 @@ def _run_kind(case):
 
 def run_kinds(case):
     """The kinds of RUN_KERNELS a run of the case calls (not the build's):
-    its solver's, and "contact" for contact between cells."""
-    kinds = [_run_kind(case)]
+    its solver's, "inelastic" for a 3D dynamic run with springs that yield,
+    break or touch, and "contact" for contact between cells."""
+    kind = _run_kind(case)
+    kinds = [kind]
+    if kind == "dynamic" and _inelastic(case):
+        kinds.append("inelastic")
     if getattr(case, "contact", None) is not None and case.solver.mode == "dynamic":
         kinds.append("contact")
     return kinds
+
+
+def _inelastic(case):
+    """Whether a case's springs can yield, break or touch (model.inelastic,
+    told from the case before the build: a material's yield or rupture,
+    cuts, interfaces)."""
+    mats = (getattr(case, "materials", None) or {}).values()
+    return bool(getattr(case, "cuts", None) or getattr(case, "interfaces", None)
+                or any(getattr(m, "yield_", None) is not None
+                       or getattr(m, "rupture", None) is not None for m in mats))
 
 
 def cold_kernels(kinds):

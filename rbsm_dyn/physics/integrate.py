@@ -69,29 +69,35 @@ def amplitude(h, t, hist_ptr, hist_t, hist_a):
 
 
 @nb.njit(inline="always", **JIT)
-def ground_step(t, dt, ground_hist, ground_dir, hist_ptr, hist_t, hist_a, body_vel, n, k):
-    """Component k of the moving ground's velocity over the step, v_g(t +
-    dt/2) = ground_dir[k] × its table, and the weight w = ½ (v_old + v_new)
-    dt [m] of the support forces' work (the trapezoid of ∫ f · dx_g over
-    the step's two half steps, as a constraint's r v̄ dt); (0, 0) while the
-    ground is at rest (ground_hist −1).  The ground is row n of the body
-    arrays: the support springs and the contact ground take its position
-    (physics/springs.py, collide.py)."""
+def ground_weight(t, dt, ground_hist, ground_dir, hist_ptr, hist_t, hist_a, body_vel, n, k):
+    """The weight w = ½ (v_old + v_new) dt [m] of the support forces' work
+    along component k over the step (the trapezoid of ∫ f · dx_g over the
+    step's two half steps, as a constraint's r v̄ dt), v_new = v_g(t +
+    dt/2) = ground_dir[k] × its table; 0 while the ground is at rest
+    (ground_hist −1).  The ground is row n of the body arrays: the support
+    springs and the contact ground take its position (physics/springs.py,
+    collide.py); move_ground drifts it after the kick."""
     if ground_hist[0] < 0:
-        return 0.0, 0.0
+        return 0.0
     v_new = ground_dir[k] * amplitude(ground_hist[0], t + 0.5 * dt, hist_ptr, hist_t, hist_a)
-    return v_new, 0.5 * (body_vel[n, k] + v_new) * dt
+    return 0.5 * (body_vel[n, k] + v_new) * dt
 
 
-@nb.njit(inline="always", **JIT)
-def move_ground(dt, v0, v1, v2, body_pos, body_vel, n):
-    """Drift of the ground's row n with its velocity at t + dt/2."""
-    body_vel[n, 0] = v0
-    body_vel[n, 1] = v1
-    body_vel[n, 2] = v2
-    body_pos[n, 0] += v0 * dt
-    body_pos[n, 1] += v1 * dt
-    body_pos[n, 2] += v2 * dt
+@nb.njit(**JIT)
+def move_ground(t, dt, ground_hist, ground_dir, hist_ptr, hist_t, hist_a, body_pos, body_vel):
+    """Drift of the ground's row (the last) with its velocity at t + dt/2,
+    after the bodies' kick (which booked the work with the velocity before
+    it).  Called after the body loop's function, not at its end: Numba
+    dropped these writes when they followed the prange loop (measured,
+    numba 0.68)."""
+    if ground_hist[0] < 0:
+        return
+    n = body_pos.shape[0] - 1
+    a = amplitude(ground_hist[0], t + 0.5 * dt, hist_ptr, hist_t, hist_a)
+    for k in range(ground_dir.shape[0]):
+        v = ground_dir[k] * a
+        body_vel[n, k] = v
+        body_pos[n, k] += v * dt
 
 
 @nb.njit(inline="always", **JIT)
@@ -326,12 +332,13 @@ def _dynamic_bodies_parallel(t, stepping, bodies, loads, bs):
     dt_c = dt / (1.0 + c)
     follow = body_ffol.shape[0] > 0
     local = damping_local > 0.0
-    # a moving ground: its velocity over the step and the weights of the
-    # work of the forces that tie bodies to it (support springs, contact)
+    # a moving ground: the weights of the work of the forces that tie
+    # bodies to it (support springs, contact); it moves after the loop
+    # (dynamic_body_pass, move_ground)
     moving = ground_hist[0] >= 0
-    g0, gw0 = ground_step(t, dt, ground_hist, ground_dir, hist_ptr, hist_t, hist_a, body_vel, n, 0)
-    g1, gw1 = ground_step(t, dt, ground_hist, ground_dir, hist_ptr, hist_t, hist_a, body_vel, n, 1)
-    g2, gw2 = ground_step(t, dt, ground_hist, ground_dir, hist_ptr, hist_t, hist_a, body_vel, n, 2)
+    gw0 = ground_weight(t, dt, ground_hist, ground_dir, hist_ptr, hist_t, hist_a, body_vel, n, 0)
+    gw1 = ground_weight(t, dt, ground_hist, ground_dir, hist_ptr, hist_t, hist_a, body_vel, n, 1)
+    gw2 = ground_weight(t, dt, ground_hist, ground_dir, hist_ptr, hist_t, hist_a, body_vel, n, 2)
     # by the parts of partition.py (bodies i·PARTS // n = p): the same chunks
     # as the spring pass's phase 0, so that a thread can keep its bodies
     for p in nb.prange(PARTS):
@@ -351,8 +358,6 @@ def _dynamic_bodies_parallel(t, stepping, bodies, loads, bs):
             _rotate(i, dt, keep, dt_c, damping_alpha, damping_local, follow, local, amp, R,
                     work, damp, body_wrench, body_inertia, body_angmom, body_mext, body_mfol,
                     dof_kind, body_quat, body_quat0, body_rot, body_dq, body_work, body_damp)
-    if moving:
-        move_ground(dt, g0, g1, g2, body_pos, body_vel, n)
 
 
 @nb.njit(**JIT)
@@ -372,9 +377,9 @@ def _dynamic_bodies_serial(t, stepping, bodies, loads, bs):
     follow = body_ffol.shape[0] > 0
     local = damping_local > 0.0
     moving = ground_hist[0] >= 0
-    g0, gw0 = ground_step(t, dt, ground_hist, ground_dir, hist_ptr, hist_t, hist_a, body_vel, n, 0)
-    g1, gw1 = ground_step(t, dt, ground_hist, ground_dir, hist_ptr, hist_t, hist_a, body_vel, n, 1)
-    g2, gw2 = ground_step(t, dt, ground_hist, ground_dir, hist_ptr, hist_t, hist_a, body_vel, n, 2)
+    gw0 = ground_weight(t, dt, ground_hist, ground_dir, hist_ptr, hist_t, hist_a, body_vel, n, 0)
+    gw1 = ground_weight(t, dt, ground_hist, ground_dir, hist_ptr, hist_t, hist_a, body_vel, n, 1)
+    gw2 = ground_weight(t, dt, ground_hist, ground_dir, hist_ptr, hist_t, hist_a, body_vel, n, 2)
     for i in range(n):
         amp = amplitude(body_load_hist[i], t, hist_ptr, hist_t, hist_a)
         R = body_rot[i]                      # at t, as the spring forces
@@ -389,8 +394,6 @@ def _dynamic_bodies_serial(t, stepping, bodies, loads, bs):
         _rotate(i, dt, keep, dt_c, damping_alpha, damping_local, follow, local, amp, R,
                 work, damp, body_wrench, body_inertia, body_angmom, body_mext, body_mfol,
                 dof_kind, body_quat, body_quat0, body_rot, body_dq, body_work, body_damp)
-    if moving:
-        move_ground(dt, g0, g1, g2, body_pos, body_vel, n)
 
 
 @nb.njit(**JIT)
@@ -412,6 +415,8 @@ def dynamic_body_pass(t, stepping, bodies, loads, bs, parallel):
         _dynamic_bodies_serial(t, stepping, bodies, loads, bs)
     else:
         _dynamic_bodies_parallel(t, stepping, bodies, loads, bs)
+    move_ground(t, stepping.dt, loads.ground_hist, loads.ground_dir, loads.hist_ptr,
+                loads.hist_t, loads.hist_a, bs.body_pos, bs.body_vel)
 
 
 @nb.njit(**JIT)

@@ -27,7 +27,7 @@ from .inelastic import (add_moment, clear_moment, finish_cell_stress, plastic_of
                         spring_law)
 from .laws import BROKEN, P_MODEL
 from .laws.plastic import CONTINUUM
-from .integrate import FIXED, FREE, VELOCITY, amplitude, ground_step
+from .integrate import FIXED, FREE, VELOCITY, amplitude, ground_weight, move_ground
 from .springs import part_range
 from ..partition import PARTS
 
@@ -477,8 +477,8 @@ def _bodies_parallel(t, stepping, pbodies, ploads, ps):
     follow = body_ffol.shape[0] > 0
     local = damping_local > 0.0
     moving = ground_hist[0] >= 0
-    g0, gw0 = ground_step(t, dt, ground_hist, ground_dir, hist_ptr, hist_t, hist_a, body_vel, n, 0)
-    g1, gw1 = ground_step(t, dt, ground_hist, ground_dir, hist_ptr, hist_t, hist_a, body_vel, n, 1)
+    gw0 = ground_weight(t, dt, ground_hist, ground_dir, hist_ptr, hist_t, hist_a, body_vel, n, 0)
+    gw1 = ground_weight(t, dt, ground_hist, ground_dir, hist_ptr, hist_t, hist_a, body_vel, n, 1)
     for p in nb.prange(PARTS):
         i0, i1 = part_range(p, PARTS, n)
         for i in range(i0, i1):
@@ -494,8 +494,6 @@ def _bodies_parallel(t, stepping, pbodies, ploads, ps):
             _turn(i, dt, keep, dt_c, damping_alpha, damping_local, follow, local, amp, work,
                   damp, body_wrench, body_jz, body_fext, body_ffol, dof_kind, body_theta,
                   body_cs, body_omega, body_work, body_damp)
-    if moving:
-        _move_ground(dt, g0, g1, body_pos, body_vel, n)
 
 
 @nb.njit(**JIT)
@@ -513,8 +511,8 @@ def _bodies_serial(t, stepping, pbodies, ploads, ps):
     follow = body_ffol.shape[0] > 0
     local = damping_local > 0.0
     moving = ground_hist[0] >= 0
-    g0, gw0 = ground_step(t, dt, ground_hist, ground_dir, hist_ptr, hist_t, hist_a, body_vel, n, 0)
-    g1, gw1 = ground_step(t, dt, ground_hist, ground_dir, hist_ptr, hist_t, hist_a, body_vel, n, 1)
+    gw0 = ground_weight(t, dt, ground_hist, ground_dir, hist_ptr, hist_t, hist_a, body_vel, n, 0)
+    gw1 = ground_weight(t, dt, ground_hist, ground_dir, hist_ptr, hist_t, hist_a, body_vel, n, 1)
     for i in range(n):
         amp = amplitude(body_load_hist[i], t, hist_ptr, hist_t, hist_a)
         work, damp = _translate(i, t, dt, keep, dt_c, damping_alpha, damping_local, follow,
@@ -527,17 +525,6 @@ def _bodies_serial(t, stepping, pbodies, ploads, ps):
         _turn(i, dt, keep, dt_c, damping_alpha, damping_local, follow, local, amp, work,
               damp, body_wrench, body_jz, body_fext, body_ffol, dof_kind, body_theta,
               body_cs, body_omega, body_work, body_damp)
-    if moving:
-        _move_ground(dt, g0, g1, body_pos, body_vel, n)
-
-
-@nb.njit(inline="always", **JIT)
-def _move_ground(dt, v0, v1, body_pos, body_vel, n):
-    """Drift of the ground's row n with its velocity at t + dt/2."""
-    body_vel[n, 0] = v0
-    body_vel[n, 1] = v1
-    body_pos[n, 0] += v0 * dt
-    body_pos[n, 1] += v1 * dt
 
 
 @nb.njit(**JIT)
@@ -549,6 +536,8 @@ def plane_body_pass(t, stepping, pbodies, ploads, ps, parallel):
         _bodies_serial(t, stepping, pbodies, ploads, ps)
     else:
         _bodies_parallel(t, stepping, pbodies, ploads, ps)
+    move_ground(t, stepping.dt, ploads.ground_hist, ploads.ground_dir, ploads.hist_ptr,
+                ploads.hist_t, ploads.hist_a, ps.body_pos, ps.body_vel)
 
 
 @nb.njit(**JIT)
