@@ -91,9 +91,10 @@ class Cut(_Node):
 
 
 class Ground(_Node):
-    """A fixed rigid half-space that cells may land on: the plane through
+    """A rigid half-space that cells may land on: the plane through
     ``point`` with the outward unit ``normal`` (the ground lies on the
-    side the normal points away from)."""
+    side the normal points away from); it moves with the case's
+    ``ground_motion``, if any, and stays put otherwise."""
     point: Vec3 = [0.0, 0.0, 0.0]
     normal: Vec3 = [0.0, 0.0, 1.0]
 
@@ -106,7 +107,8 @@ class Contact(_Node):
     factor on the penalty (default 1: two half-cells in series, l_a/E_a +
     l_b/E_b); ``damping``: the ratio ζ of a normal dashpot to its critical
     2√(k m*) (default 0: an elastic bounce); ``skin`` [m]: the margin of the neighbour search (default a
-    fifth of the smallest cell size); ``ground``: a fixed half-space."""
+    fifth of the smallest cell size); ``ground``: a rigid half-space (moving
+    with a ``ground_motion``)."""
     between: Union[Literal["all"], list[str], list[list[str]]] = "all"
     friction: float = Field(default=0.0, ge=0)
     stiffness: float = Field(default=1.0, gt=0)

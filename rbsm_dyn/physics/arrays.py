@@ -91,7 +91,10 @@ uses into locals before its first prange; prange bodies, and the helpers
 they call, use arrays only (a field written inside a prange can lose its
 writes; a container passed to a call inside a prange hid the writes from
 the loop fuser); no tuple of NamedTuples (crashes, or compiles for minutes);
-classes at module level only (tests/test_kernel_interface.py checks); and
+classes at module level only (tests/test_kernel_interface.py checks); no
+work after a prange loop in the same function (the ground's drift written
+there was lost: integrate.move_ground is a call after the loop's
+function instead, measured numba 0.68); and
 a constant passed from compiled code to a kernel is typed Literal[bool]
 and compiles a variant of the callee of its own beside the bool of a
 Python caller: flag() makes it a run-time bool where one variant is
