@@ -244,13 +244,17 @@ class ContactState:
     builds: int = 0
     stiff_warning: str = field(default="")
     spring_rows: np.ndarray = None      # the springs' row sums (stiffness_check)
+    # a trial copy (an output frame's, explicit.spring_pass): its out holds
+    # the pairs at the frame, whose dissipation of the step (O_W) the step
+    # from there books (solvers/output.py spring_observables)
+    is_trial: bool = False
 
     def trial(self):
         """A copy whose commits (slip, friction) do not touch this one."""
         return ContactState(self.pairs, self.slip.copy(), self.sep.copy(), self.out.copy(),
                             self.ptr, self.entry, self.body_friction.copy(),
                             self.body_dwrench.copy(), self.x_build, self.q_build, self.scratch,
-                            self.builds)
+                            self.builds, is_trial=True)
 
 
 def new_contact_state(model):

@@ -33,7 +33,7 @@ import numpy as np
 from .._version import __version__
 from ..io.history import HistoryWriter
 from ..physics.rotation import quat_matrix_np, quat_mul_np
-from ..physics.collide import O_E
+from ..physics.collide import O_E, O_W
 from ..physics.inelastic import strain_energy
 from ..physics.laws import BROKEN
 from ..physics.poisson import poisson_energy
@@ -427,8 +427,17 @@ class Recorder:
         """Dissipated energies and crack measures of the springs now (and
         the friction of contacts between cells, in a run with contact)."""
         m = self.model
-        extra = ({"contact_friction": float(np.sum(state.contact.body_friction))}
-                 if m.contact is not None and state.contact is not None else {})
+        extra = {}
+        cs = state.contact if m.contact is not None else None
+        if cs is not None:
+            # at a frame (a trial contact state) with the step's own: its
+            # slip springs stand at the frame already (their strain), having
+            # lost what the Coulomb return and a changed area took, which
+            # the next step books (physics/collide.py O_W)
+            w = float(np.sum(cs.body_friction))
+            if cs.is_trial:
+                w += float(np.sum(cs.out[:, O_W]))
+            extra["contact_friction"] = w
         if m.viscous:
             extra["viscous"] = viscous_energies(m, state)[1]
         if not m.inelastic:
