@@ -34,6 +34,11 @@ def test_case_checks_and_runs_a_few_steps(path, tmp_path):
     h = rbsm_dyn.open_history(out)
     assert h.frames >= 2
     assert np.all(np.isfinite(h.position))
+    from rbsm_dyn.case import load_case
+    if load_case(path).solver.mode == "dynamic":
+        # --max-steps: dynamic steps (static iterations; linear and modal
+        # runs solve at once and ignore it)
+        assert h.step[-1] == 20, f"{path.name}: the run stopped at step {h.step[-1]}, not 20"
     # the case header documents what it shows and its reference answer
     head = path.read_text(encoding="utf-8").splitlines()[0]
     assert head.startswith("#")
