@@ -39,6 +39,14 @@ class Progress:
     def enabled(self):
         return self.style is not None
 
+    def retotal(self, total):
+        """A new total (an explicit run whose step changed)."""
+        self.total = total
+        bar = getattr(self, "bar", None)
+        if bar is not None:
+            bar.total = total
+            bar.refresh()
+
     def start(self, total, dt):
         self.total = total
         self.t_start = self.clock()

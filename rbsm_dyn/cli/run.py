@@ -152,6 +152,9 @@ def _run(case, model, args, threads, lock, notice=None):
                                restart=restart, governor=governor)
             summary = (f"{res['steps']} steps, dt = {res['dt']:.4g} s "
                        f"(estimate {res['dt_estimate']:.4g} s)")
+            if res.get("dt_changes"):
+                summary += (f", reduced {res['dt_changes']} times to {res['dt_final']:.4g} s "
+                            "as the springs' gaps grew")
         elif case.solver.mode == "static":
             from ..solvers import relax
             res = relax.run(case, model, rec, max_steps=args.max_steps, progress=progress)

@@ -205,7 +205,7 @@ class Model:
     def is_support(self):
         return self.spring_bodies[:, 1] == self.n_bodies
 
-    def stable_dt(self):
+    def stable_dt(self, state=None):
         """Stable step 2/ω_max from a bound on ω_max² = λ_max(M⁻¹K): Gershgorin
         row sums of the mass-scaled small-strain stiffness M^-½ K M^-½, with
         the rotations of each body in its principal axes so that M is
@@ -213,8 +213,12 @@ class Model:
         the bound is safe; it includes the shear-lever coupling of every
         spring (DESIGN.md §5) and is within a factor 2 of the true step on
         blocks, Voronoi and sliver meshes (tests/test_linear_modal.py,
-        tests/test_stability.py); refined by omega_max_bound's sweeps."""
-        lam = omega_max_bound(self)
+        tests/test_stability.py); refined by omega_max_bound's sweeps.
+        `state`: the bound of a deformed state (the levers to the springs'
+        midpoints, which plastic and slip gaps lengthen; the step a run
+        takes from there, solvers/explicit.py), else of the reference
+        configuration."""
+        lam = omega_max_bound(self, state=state)
         dt = np.inf if lam <= 0 else 2.0 / np.sqrt(lam)
         if self.viscous and np.isfinite(dt):
             # a dashpot τ_d k on the springs: the central difference is

@@ -80,10 +80,12 @@ class State:
     plane_synced: bool = False    # body_theta, body_omega hold the plane state's
     step: int = 0
     dt: float = 0.0
+    t0: float = 0.0               # [s] step n is at time t0 + n dt (physics/arrays.py Stepping)
+    step_base: int = 0            # the step at which dt last changed (solvers/explicit.py)
 
     @property
     def time(self):
-        return self.step * self.dt
+        return self.t0 + self.step * self.dt
 
 
 def new_state(model):

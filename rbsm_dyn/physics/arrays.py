@@ -68,7 +68,7 @@ Features (None when a scene does not use them: the pass is not compiled)
                  body_e, body_g (N,) [Pa], body_rigid (N,) uint8, ground
                  (4,) the plane n·x ≤ d; mu [1], kfac [1], zeta [1];
                  scratch (threads, rows, 3); overwrite (no springs)
-  Stepping       dt [s], damping_alpha [1/s], damping_local [1]
+  Stepping       dt [s], damping_alpha [1/s], damping_local [1], t0 [s]
   ViscousSprings viscous springs (physics/viscous.py): per law row the
                  dashpot time law_dashpot (L,) [s] and the Maxwell
                  branches' shares law_g and step factors law_a, law_b
@@ -287,10 +287,12 @@ class Relaxation(NamedTuple):
 
 class Stepping(NamedTuple):
     """The explicit step: dt [s], mass-proportional damping α [1/s],
-    Cundall's local damping β [1]."""
+    Cundall's local damping β [1], and t0 [s]: step n is at time
+    t0 + n dt (0 until a run changes its step, solvers/explicit.py)."""
     dt: float
     damping_alpha: float
     damping_local: float
+    t0: float = 0.0
 
 
 def of(cls, obj, **override):

@@ -2,7 +2,8 @@
 restart").
 
 A checkpoint is the whole :class:`rbsm_dyn.model.State` -- every array,
-``step`` and ``dt`` -- plus the number of history frames written so far and
+``step``, ``dt`` and the time base of a run whose step has changed (``t0``,
+``step_base``; 0 when read from an older file) -- plus the number of history frames written so far and
 the initial energy of the divergence guard, stored in the history file under
 ``/checkpoint``.  HDF5 SWMR mode forbids creating datasets once frames are
 appended, so the datasets are made with the rest of the file
@@ -105,7 +106,8 @@ def create_slots(h5file, state):
             # start and a checkpoint only overwrites
             s.create_dataset(a, data=np.zeros(arr.shape, dtype=arr.dtype))
         for a, dt in (("step", np.int64), ("dt", np.float64), ("frames", np.int64),
-                      ("e0", np.float64), ("time", np.float64)):
+                      ("e0", np.float64), ("time", np.float64), ("t0", np.float64),
+                      ("step_base", np.int64)):
             s.create_dataset(a, data=dt(0))
         cs = getattr(state, "contact", None)
         if cs is not None:
@@ -167,6 +169,8 @@ class Checkpointer:
         s["step"][()] = np.int64(state.step)
         s["dt"][()] = np.float64(state.dt)
         s["time"][()] = np.float64(state.time)
+        s["t0"][()] = np.float64(state.t0)
+        s["step_base"][()] = np.int64(state.step_base)
         s["frames"][()] = np.int64(self.writer.frames)
         s["e0"][()] = np.float64(e0)
         if "contact" in s:
@@ -316,6 +320,9 @@ def _read_checkpoint(f, path):
     out = {a: s[a][()] for a in ARRAYS if a in s or a not in OPTIONAL}
     for a in ("step", "dt", "time", "frames", "e0"):
         out[a] = s[a][()].item()
+    for a in ("t0", "step_base"):
+        # a run whose step changed (solvers/explicit.py); 0 in older files
+        out[a] = s[a][()].item() if a in s else 0
     out["contact"] = _read_contact(s["contact"]) if "contact" in s else None
     case = f["parameters/case"].asstr()[()] if "parameters/case" in f else None
     frames_in_file = int(f.attrs.get("frames", 0))
@@ -397,4 +404,6 @@ def load_for_restart(case, model, path, *, writer_alive=None):
     state.plane_synced = len(state.body_theta) > 0 and "body_theta" in data
     state.step = int(data["step"])
     state.dt = float(data["dt"])
+    state.t0 = float(data.get("t0", 0.0))
+    state.step_base = int(data.get("step_base", 0))
     return state, data

@@ -29,6 +29,7 @@ from ..model.contact import rebuild, stiffness_check
 from ..physics.arrays import Stepping
 from ..physics.collide import contact_step
 from ..physics.integrate import VELOCITY, run_dynamic, synchronized_momenta
+from ..physics.laws import P_CRIT
 from ..physics.passes import spring_forces
 from ..physics.plane import run_plane
 from ..physics.viscous import viscous_pass
@@ -164,14 +165,14 @@ def advance(model, state, n_steps, damping_alpha=0.0, damping_local=0.0, options
         pb, psp, pl = plane_arrays(m)
         state.step = run_plane(
             n_steps, state.step, Stepping(float(state.dt), float(damping_alpha),
-                                          float(damping_local)),
+                                          float(damping_local), float(state.t0)),
             pb, psp, pl, plane_state(m, state), history(state, opt), parallel_arg(opt))
         lift(m, state)
         return
     contact = contact_arrays(m, state.contact) if opt.contact else None
     state.step = run_dynamic(
         n_steps, state.step, Stepping(float(state.dt), float(damping_alpha),
-                                      float(damping_local)),
+                                      float(damping_local), float(state.t0)),
         bodies, springs, loads, body_state(state), history(state, opt),
         aux_stress(m, state, opt), contact, viscous_springs(m, state, opt), parallel_arg(opt))
 
@@ -299,9 +300,9 @@ def run(case, model, recorder, *, max_steps=None, progress=None, chunk_steps=Non
     Checkpoints (solvers/checkpoint.py) at output.checkpoint_interval, at the
     end, and on SIGINT/SIGTERM (then checkpoint.Interrupted is raised).
     Returns a dict of figures (steps, dt, wall time).  Raises RunFailed."""
+    dt, est = choose_dt(case, model)
     if restart is None:
         state = new_state(model)
-        dt, est = choose_dt(case, model)
         state.dt = dt
         apply_initial(case, model, state)
         if model.contact is not None:
@@ -310,17 +311,17 @@ def run(case, model, recorder, *, max_steps=None, progress=None, chunk_steps=Non
     else:
         # the leapfrog's half-step state as saved: no start_half_step again
         state = restart[0]
-        dt, est = state.dt, model.stable_dt()
+        dt = state.dt
     damping = getattr(case.solver, "damping", None)
     # α of the keys or of rayleigh (β is the springs' dashpot: the model's)
     alpha = float(damping.coefficients()[0]) if damping is not None else 0.0
     local = float(getattr(damping, "local", 0.0) or 0.0)
     end_time = case.solver.end_time
-    n_total = int(np.ceil(end_time / dt - 1e-9))
-    if max_steps is not None:
-        n_total = min(n_total, int(max_steps))
     interval = case.output.interval
-    out_every = max(1, int(round(interval / dt)))
+
+    def schedule():
+        return _schedule(state, end_time, interval, max_steps)
+    n_total, out_every = schedule()
     if chunk_steps is None:
         chunk_steps = max(1, int(2e7 // max(model.n_springs, 1)))
     # divergence guard: no body in a sane run moves at ten times the fastest
@@ -382,15 +383,110 @@ def run(case, model, recorder, *, max_steps=None, progress=None, chunk_steps=Non
             obs = {}
             e0 = float(restart[1]["e0"])
         ckpt.mark(state)
+        adapt = StepAdapter(model) if adapts(model) and np.isfinite(est) else None
         _loop(model, state, recorder, progress, record, energy_runaway, ckpt, guard, e0,
-              n_total, out_every, chunk_steps, (alpha, local), v_limit, dt, est, governor)
+              schedule, chunk_steps, (alpha, local), v_limit, est, adapt, governor)
         ckpt.write(state, e0)
     wall = _time.perf_counter() - t_wall
     warn = [quasi.warning()] if local and quasi.warning() else []
     if model.contact is not None and state.contact.stiff_warning:
         warn.append(state.contact.stiff_warning)
     return dict(steps=state.step, dt=dt, dt_estimate=est, wall_time=wall, state=state,
-                warnings=warn)
+                warnings=warn, dt_final=state.dt,
+                dt_changes=0 if adapt is None else adapt.changes)
+
+
+def _schedule(state, end_time, interval, max_steps):
+    """(last step, steps between frames) of a run from its time base:
+    frames every round(interval/dt) steps from the step at which dt last
+    changed (State.step_base), the last step the first at or past end_time
+    (capped at max_steps)."""
+    dt = state.dt
+    t_base = state.t0 + state.step_base * dt
+    n_total = state.step_base + int(np.ceil((end_time - t_base) / dt - 1e-9))
+    if max_steps is not None:
+        n_total = min(n_total, int(max_steps))
+    return n_total, max(1, int(round(interval / dt)))
+
+
+def adapts(model):
+    """Whether a run re-bounds its stable step as it goes: a model with
+    yield, whose plastic gaps lengthen the springs' levers
+    (model/stable_step.py _deformed_springs).  Not a model that only
+    breaks: a crack's gap is open or slides in contact, and every shipped
+    fracture case ran at dt_safety 1.0 with a fixed step
+    (benchmarks/results/stability.md (e)), so it pays nothing for it; not
+    with viscous springs, whose rate is the last step's gap difference
+    over dt (physics/viscous.py)."""
+    if not model.inelastic or model.viscous or model.n_springs == 0:
+        return False
+    return bool(np.any(model.law_params[np.unique(model.face_law), P_CRIT] > 0))
+
+
+#: the bound is made again at the first frame after this many steps
+#: since the frame that last made it (frames counted from the last change
+#: of the step, so a restart makes it at the same frames): it costs about
+#: 20 steps of one thread (3 passes over the springs; cases/branching_glass
+#: 297 465 springs: 0.44 s against 20 ms a step), so about 5 %
+CHECK_STEPS = 400
+#: a step above the bound is reduced to this share of it, so that the
+#: bound, which falls slowly as the gaps grow, is not met again at once
+STEP_MARGIN = 0.9
+
+
+class StepAdapter:
+    """The explicit step of a deforming model, kept below the stable-step
+    bound of its present state (Model.stable_dt(state), itself below the
+    exact step).  The bound falls as plastic gaps grow: a spring's force
+    acts at the midpoint of its two material points, so its levers
+    lengthen by half its gap and the rotational modes stiffen
+    (cases/impulsive_beam.yaml at 25 mm of deflection: the exact step falls
+    to 0.64 of the undeformed one; benchmarks/results/stability.md (f)).
+    A step above the bound goes on at STEP_MARGIN of it.  The step chosen
+    at the start (dt_safety × the undeformed bound) is kept as long as it
+    is below; the step only falls."""
+
+    def __init__(self, model):
+        self.model = model
+        self.changes = 0
+
+    def check(self, state, out_every):
+        """The new step [s] if the present one exceeds the bound of this
+        state, else None; the bound is made at every
+        ceil(CHECK_STEPS / out_every)-th frame since the last change."""
+        every = max(1, -(-CHECK_STEPS // out_every))
+        if ((state.step - state.step_base) // out_every) % every:
+            return None
+        bound = self.model.stable_dt(state)
+        if not (np.isfinite(bound) and bound > 0.0) or state.dt <= bound:
+            return None
+        return STEP_MARGIN * bound
+
+
+def change_step(model, state, dt_new):
+    """Go on from the present whole step t_N with the step dt_new: the
+    synchronised v_N, L_N restart the leapfrog at v_N − (dt_new/2) a_N
+    (start_half_step, second order as at t = 0), the time base moves to
+    t_N, and the external work keeps its value at t_N (the half-step
+    corrections of external_work are those of the new half step)."""
+    vel, ang = synchronize(model, state)
+    w_before = external_work(model, state, state.body_work, vel)
+    t_now = state.time
+    state.body_vel[:-1] = vel
+    state.body_angmom[:-1] = ang
+    state.dt = dt_new
+    state.t0 = t_now - state.step * dt_new
+    state.step_base = state.step
+    start_half_step(model, state)
+    if state.plane is not None:
+        # a plane model's state made again from the slab's arrays at the
+        # next chunk (solvers/plane.py plane_state): θ as it is, ω of the new L
+        n = model.n_bodies
+        state.body_omega[:n] = state.body_angmom[:n, 2] / plane_arrays(model)[0].body_jz
+        state.plane = None
+    vel, _ = synchronize(model, state)
+    if len(state.body_work):
+        state.body_work[0] += w_before - external_work(model, state, state.body_work, vel)
 
 
 #: a quasi-static explicit run whose kinetic energy exceeds this fraction of
@@ -443,15 +539,18 @@ def _contact_hint(model, state):
 
 
 def _loop(model, state, recorder, progress, record, energy_runaway, ckpt, guard, e0,
-          n_total, out_every, chunk_steps, damping, v_limit, dt, est, governor=None):
+          schedule, chunk_steps, damping, v_limit, est, adapt=None, governor=None):
     obs = {}
     over = 0                  # output frames in a row over the energy bound
     # the passes, once per run: for the most threads the run may take
     opt = Options.of(model, threads=None if governor is None else governor.available)
+    n_total, out_every = schedule()
+    dt = state.dt
     if progress:
         progress.start(n_total, dt)
     while state.step < n_total:
-        next_out = (state.step // out_every + 1) * out_every
+        base = state.step_base
+        next_out = base + ((state.step - base) // out_every + 1) * out_every
         n = min(next_out, n_total, state.step + chunk_steps) - state.step
         if model.contact is not None:
             # the broad phase again when a cell has moved half the skin; a
@@ -473,7 +572,7 @@ def _loop(model, state, recorder, progress, record, energy_runaway, ckpt, guard,
                    "or check the case" + _contact_hint(model, state))
             recorder.fail(msg)
             raise RunFailed(msg)
-        if state.step % out_every == 0 or state.step == n_total:
+        if (state.step - state.step_base) % out_every == 0 or state.step == n_total:
             obs = record()
             why = energy_runaway(obs, e0)
             over = over + 1 if why else 0
@@ -484,6 +583,15 @@ def _loop(model, state, recorder, progress, record, energy_runaway, ckpt, guard,
                        "solver.dt_safety or check the case" + _contact_hint(model, state))
                 recorder.fail(msg)
                 raise RunFailed(msg)
+            new_dt = adapt.check(state, out_every) if adapt is not None else None
+            if new_dt is not None:
+                change_step(model, state, new_dt)
+                adapt.changes += 1
+                dt = new_dt
+                est = model.stable_dt(state)
+                n_total, out_every = schedule()
+                if progress:
+                    progress.retotal(n_total)
             if ckpt.due(state) and state.step < n_total:
                 ckpt.write(state, e0)
         if guard.signum is not None and state.step < n_total:
