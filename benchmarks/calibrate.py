@@ -68,7 +68,7 @@ def split_stiffness(model):
 def alpha_sweep(args):
     alphas = np.round(np.arange(0.0, 1.2001, 0.1), 10)
     print(f"# uniaxial stress, unit cube, ~{args.cells} cells, seeds {args.seeds}, "
-          f"core {args.core}")
+          f"core {args.core}, interior {args.interior}")
     for kind in ("voronoi", "blocks"):
         seeds = args.seeds if kind == "voronoi" else [0]
         samples = {a: ([], []) for a in alphas}
@@ -80,7 +80,8 @@ def alpha_sweep(args):
             for a in alphas:
                 if kind == "blocks" and a == 0.0:
                     continue        # k_s = 0: the cubic lattice has a shear mechanism
-                E, nu = uniaxial_moduli(model, core=args.core, K=kn + a * ks)
+                E, nu = uniaxial_moduli(model, core=args.core, K=kn + a * ks,
+                                        interior=args.interior)
                 samples[a][0].extend(E)
                 samples[a][1].extend(nu)
             print(f"# {kind} seed {seed}: {model.n_bodies} cells, {model.n_springs} spring "
@@ -116,7 +117,8 @@ def aux_sweep(args):
         kaux = poisson_stiffness(aux._replace(cell_lv=model.body_volume.copy()),
                                  model.n_bodies)
         for b in betas:
-            E, nu = uniaxial_moduli(model, core=args.core, K=k1 + b * kaux)
+            E, nu = uniaxial_moduli(model, core=args.core, K=k1 + b * kaux,
+                                    interior=args.interior)
             samples[b][0].extend(E)
             samples[b][1].extend(nu)
         print(f"# voronoi seed {seed}: {model.n_bodies} cells, {len(aux.slot_cell)} slots, "
@@ -145,7 +147,7 @@ def check(args):
                 for s in seeds:
                     case = case_for(kind, args.cells, s, poisson=nu_t, rule=rule)
                     model = build_model(case, meshes[s])
-                    E, nu = uniaxial_moduli(model, core=args.core)
+                    E, nu = uniaxial_moduli(model, core=args.core, interior=args.interior)
                     Es.extend(E / E_REF)
                     nus.extend(nu)
                 mat = model.materials[0]
@@ -164,6 +166,9 @@ def main():
     p.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
     p.add_argument("--core", type=float, default=0.25,
                    help="fraction of the length trimmed at each loaded end for the fit")
+    p.add_argument("--interior", action="store_true",
+                   help="fit over the central part along every axis (the bulk: away from "
+                        "the free lateral surface too), not the whole cross-section")
     p.add_argument("--nu", type=float, nargs="+", default=[0.0, 0.1, 0.2])
     p.add_argument("--betas", type=float, nargs="+", default=None,
                    help="aux: the β = λ/E0 to measure (default: the table's rows)")
