@@ -15,7 +15,13 @@ u ≈ u0 + G x of the centroid displacements over the cells whose centroids lie
 in the middle half of the height (the issue's measurement).
 
     python benchmarks/poisson_interior.py [--cells 1000] [--seeds 23] [--nu 0.2 0.3]
-        [--core 0.25] [--stiffness calibrated] [--cli]
+        [--core 0.25] [--stiffness calibrated] [--cli] [--variants]
+
+--variants: where the two part, load along z only, ν of both fits for:
+tractions on both ends; support springs below and traction on top; traction
+below and the top cells prescribed (plane top); prescribed uz on both end
+layers; the user's rollers; the rollers with the top cells prescribed
+uz = ε z_c (the uniform strain's own displacement, not a plane).
 """
 import argparse
 import os
@@ -28,7 +34,7 @@ import numpy as np
 
 from rbsm_dyn.case import load_case_text
 from rbsm_dyn.model import build_mesh, build_model
-from rbsm_dyn.physics.integrate import DISPLACEMENT
+from rbsm_dyn.physics.integrate import DISPLACEMENT, FIXED, FREE
 from rbsm_dyn.stiffness import solve_linear, stiffness_matrix, uniaxial_moduli
 
 E = 30.0e9
@@ -106,6 +112,8 @@ def main():
     p.add_argument("--nu", type=float, nargs="+", default=[0.2, 0.3])
     p.add_argument("--core", type=float, default=0.25)
     p.add_argument("--stiffness", default="calibrated")
+    p.add_argument("--variants", action="store_true",
+                   help="also the boundary-condition variants (z load) of the docstring")
     p.add_argument("--cli", action="store_true",
                    help="also run the rollers case by `python -m rbsm_dyn` (static)")
     args = p.parse_args()
@@ -140,7 +148,62 @@ def main():
                       f"{mat['lambda_aux'] / E:.3f} | {Es.mean() / E:.4f} | {nus.mean():.4f} | "
                       f"{Ei.mean() / E:.4f} | {nui.mean():.4f} | {Er / E:.4f} | {nur:.4f} | "
                       f"{Eri / E:.4f} | {nuri:.4f} | {cli} |", flush=True)
+                if args.variants:
+                    variants(tm, rm, K, args.core)
             print(f"# {time.perf_counter() - t0:.0f} s", flush=True)
+
+
+def variants(tm, rm, K, core):
+    """ν (section, interior) of the z-loaded cube under the boundary-condition
+    variants of the docstring (linear solves; tm without supports, rm the
+    rollers case)."""
+    mesh = tm.mesh
+    n = tm.n_bodies
+    x = tm.body_pos0[:n]
+    w = tm.body_volume
+    top = np.unique(mesh.bface_cell[mesh.bface_side == 5])
+    bot = np.unique(mesh.bface_cell[mesh.bface_side == 4])
+    is_top = np.isin(np.arange(n), top)[:, None]
+    is_bot = np.isin(np.arange(n), bot)[:, None]
+    pin = int(np.argmin(np.linalg.norm(x - [0.5, 0.5, 0.0], axis=1)))
+    # uniform end tractions ±σ e_z at the boundary faces' centroids (as uniaxial_moduli)
+    load = np.zeros((n, 6))
+    for side, sgn in ((4, -1.0), (5, 1.0)):
+        sel = mesh.bface_side == side
+        cell = mesh.bface_cell[sel]
+        f = np.zeros((sel.sum(), 3))
+        f[:, 2] = sgn * mesh.bface_area[sel]
+        np.add.at(load[:, :3], cell, f)
+        np.add.at(load[:, 3:], cell, np.cross(mesh.bface_centroid[sel] - x[cell], f))
+
+    def show(name, U):
+        nus = []
+        for interior in (False, True):
+            e = fit_strain(x, U[:, :3], w, 2, 0.0, 1.0, core, interior)
+            nus.append(-(e[0, 0] + e[1, 1]) / (2 * e[2, 2]))
+        print(f"#   {name:48s} ν section {nus[0]:.4f}, interior {nus[1]:.4f}")
+
+    free = np.zeros((n, 6), dtype=np.int8)
+    zero = np.zeros((n, 6))
+    kind = free.copy()
+    kind[int(np.argmin(np.linalg.norm(x - 0.5, axis=1)))] = FIXED
+    show("tractions on both ends", solve_linear(tm, load, K=K, kind=kind, value=zero)[0])
+    kind = rm.dof_kind.copy()
+    kind[kind == DISPLACEMENT] = FREE
+    show("support springs below, traction on top", solve_linear(rm, -load * is_top, kind=kind,
+                                                                 value=zero)[0])
+    kind, val = free.copy(), zero.copy()
+    kind[top, 2], val[top, 2] = DISPLACEMENT, -D
+    kind[pin, [0, 1, 5]] = FIXED
+    show("traction below, top cells prescribed uz", solve_linear(
+        tm, -load * is_bot * (D * E), K=K, kind=kind, value=val)[0])
+    kind[bot, 2] = FIXED
+    show("prescribed uz on both end layers", solve_linear(tm, zero, K=K, kind=kind,
+                                                           value=val)[0])
+    show("rollers (the user's case)", solve_linear(rm)[0])
+    val = rm.dof_value.copy()
+    val[top, 2] = -D * x[top, 2]
+    show("rollers, top cells uz = ε z_c (affine)", solve_linear(rm, zero, value=val)[0])
 
 
 def cli_nu(size, seed, nu, extra, x, core):
