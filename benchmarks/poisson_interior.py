@@ -10,9 +10,11 @@
     one cell at the bottom centre held in x, y, rz against rigid motion;
     stress = reaction of the top cells / area.
 
-Both fit the strain the same way: the volume-weighted least-squares fit
-u ≈ u0 + G x of the centroid displacements over the cells whose centroids lie
-in the middle half of the height (the issue's measurement).
+Both fit the strain the same way, the volume-weighted least-squares fit
+u ≈ u0 + G x of the centroid displacements, over two regions: 'section',
+the cells whose centroids lie in the middle half of the loaded length, all
+across (the calibration's fit until 2026-11-27), and 'interior', the cells
+in the middle half along every axis (the issue's measurement).
 
     python benchmarks/poisson_interior.py [--cells 1000] [--seeds 23] [--nu 0.2 0.3]
         [--core 0.25] [--stiffness calibrated] [--cli] [--variants]
