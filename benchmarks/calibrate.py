@@ -68,10 +68,10 @@ def split_stiffness(model):
 def alpha_sweep(args):
     alphas = np.round(np.arange(0.0, 1.2001, 0.1), 10)
     print(f"# uniaxial stress, unit cube, ~{args.cells} cells, seeds {args.seeds}, "
-          f"core {args.core}")
+          f"core {args.core}, interior {args.interior}")
     for kind in ("voronoi", "blocks"):
         seeds = args.seeds if kind == "voronoi" else [0]
-        samples = {a: ([], []) for a in alphas}
+        samples = {a: ([], [], []) for a in alphas}
         for seed in seeds:
             t0 = time.perf_counter()
             # Kawai's rule at ν = 0 (E0 = E, α = 0.5): independent of the stored table
@@ -83,14 +83,22 @@ def alpha_sweep(args):
                 E, nu = uniaxial_moduli(model, core=args.core, K=kn + a * ks)
                 samples[a][0].extend(E)
                 samples[a][1].extend(nu)
+                if args.interior:
+                    samples[a][2].extend(uniaxial_moduli(model, core=args.core, K=kn + a * ks,
+                                                         interior=True)[1])
             print(f"# {kind} seed {seed}: {model.n_bodies} cells, {model.n_springs} spring "
                   f"points, {time.perf_counter() - t0:.1f} s")
-        print(f"\n{kind}: alpha, E/E0, nu  (mean ± std over {len(seeds)} seed(s) × 3 axes)")
+        what = "nu of the interior (section: " if args.interior else "nu ("
+        print(f"\n{kind}: alpha, E/E0, {what}mean ± std over {len(seeds)} seed(s) × 3 axes)")
         for a in alphas:
-            E, nu = map(np.array, samples[a])
+            E, nu, nu_in = map(np.array, samples[a])
             if len(E):
-                print(f"    [{a:.2f}, {E.mean():.4f}, {nu.mean():.4f}],   "
-                      f"# ± {E.std():.4f}, ± {nu.std():.4f}")
+                if args.interior:
+                    print(f"    [{a:.2f}, {E.mean():.4f}, {nu_in.mean():.4f}],   "
+                          f"# ± {E.std():.4f}, ± {nu_in.std():.4f}; section nu {nu.mean():.4f}")
+                else:
+                    print(f"    [{a:.2f}, {E.mean():.4f}, {nu.mean():.4f}],   "
+                          f"# ± {E.std():.4f}, ± {nu.std():.4f}")
 
 
 BETAS = [0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.8, 1.0, 1.25, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0,
@@ -116,7 +124,8 @@ def aux_sweep(args):
         kaux = poisson_stiffness(aux._replace(cell_lv=model.body_volume.copy()),
                                  model.n_bodies)
         for b in betas:
-            E, nu = uniaxial_moduli(model, core=args.core, K=k1 + b * kaux)
+            E, nu = uniaxial_moduli(model, core=args.core, K=k1 + b * kaux,
+                                    interior=args.interior)
             samples[b][0].extend(E)
             samples[b][1].extend(nu)
         print(f"# voronoi seed {seed}: {model.n_bodies} cells, {len(aux.slot_cell)} slots, "
@@ -145,7 +154,7 @@ def check(args):
                 for s in seeds:
                     case = case_for(kind, args.cells, s, poisson=nu_t, rule=rule)
                     model = build_model(case, meshes[s])
-                    E, nu = uniaxial_moduli(model, core=args.core)
+                    E, nu = uniaxial_moduli(model, core=args.core, interior=args.interior)
                     Es.extend(E / E_REF)
                     nus.extend(nu)
                 mat = model.materials[0]
@@ -164,6 +173,10 @@ def main():
     p.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
     p.add_argument("--core", type=float, default=0.25,
                    help="fraction of the length trimmed at each loaded end for the fit")
+    p.add_argument("--interior", action="store_true",
+                   help="ν from the fit over the central part along every axis (the bulk: "
+                        "away from the free lateral surface too) instead of the whole "
+                        "cross-section (alpha: E/E0 stays the section's; aux, check: both)")
     p.add_argument("--nu", type=float, nargs="+", default=[0.0, 0.1, 0.2])
     p.add_argument("--betas", type=float, nargs="+", default=None,
                    help="aux: the β = λ/E0 to measure (default: the table's rows)")

@@ -17,7 +17,8 @@ API (N bodies, S spring points, n = 6 N):
     rigid_modes(model) -> (6N, 6)         translations, rotations (null space
                                           of K for a model without supports)
     spring_forces(model, U) -> (S, 3)     linear force on body a [N], world
-    uniaxial_moduli(model, axes=(0, 1, 2), core=0.25, stress=1.0, K=None)
+    uniaxial_moduli(model, axes=(0, 1, 2), core=0.25, stress=1.0, K=None,
+                    interior=False)
         -> (E (len(axes),) [Pa], ν (len(axes),))   homogeneous uniaxial test
 
 Kinematics (DESIGN.md §1, small rotation): spring s joins bodies a and b at
@@ -255,7 +256,7 @@ def spring_forces(model, U):
     return np.einsum("sij,sj->si", C, d)
 
 
-def uniaxial_moduli(model, axes=(0, 1, 2), core=0.25, stress=1.0, K=None):
+def uniaxial_moduli(model, axes=(0, 1, 2), core=0.25, stress=1.0, K=None, interior=False):
     """Effective Young's modulus and Poisson ratio of a box specimen under
     homogeneous uniaxial stress (docs/calibration.md), one value per axis.
 
@@ -269,7 +270,10 @@ def uniaxial_moduli(model, axes=(0, 1, 2), core=0.25, stress=1.0, K=None):
     strain is the symmetric part of the volume-weighted least-squares fit
     u ≈ u0 + G x over the cells whose centroids lie in the central part of
     the specimen along e_k (a fraction `core` of the length trimmed at each
-    end, away from the loaded boundary layers):
+    end, away from the loaded boundary layers), all cells across the
+    section; `interior`: the central part along every axis (the trimmed
+    fraction `core` of each side, so also away from the free lateral
+    surface: the bulk lattice's E and ν, issue 30):
 
         E = σ / ε_kk,   ν = −(ε_ii + ε_jj) / (2 ε_kk).
 
@@ -311,9 +315,11 @@ def uniaxial_moduli(model, axes=(0, 1, 2), core=0.25, stress=1.0, K=None):
     nu = np.empty(len(axes))
     w = model.body_volume
     for col, k in enumerate(axes):
-        length = box_hi[k] - box_lo[k]
-        sel = ((x[:, k] >= box_lo[k] + core * length) & (x[:, k] <= box_hi[k] - core * length))
         dim = 2 if plane else 3
+        sel = np.ones(n, dtype=bool)
+        for j in (range(dim) if interior else (k,)):
+            length = box_hi[j] - box_lo[j]
+            sel &= (x[:, j] >= box_lo[j] + core * length) & (x[:, j] <= box_hi[j] - core * length)
         A = np.hstack([np.ones((sel.sum(), 1)), (x[sel] - centre)[:, :dim]])
         sw = np.sqrt(w[sel])[:, None]
         coef, *_ = np.linalg.lstsq(A * sw, U[sel, :dim, col] * sw, rcond=None)
