@@ -117,13 +117,23 @@ def spring_law(s, f, dn, ds, dt, turned, area, kn, ks, kt, face_h, face_law, law
         if rupt == SOFTENING:
             kappa = spring_kappa[s]
             if en > kappa:
+                k_old = kappa
                 kappa = en
                 spring_kappa[s] = kappa
                 dnew = softening_damage(kappa, kn / area, law_params[li, P_FT],
                                         law_params[li, P_GF])
                 if dnew > dmg:
                     # energy release rate Y = ½ k e² (undamaged springs; en > 0)
+                    # at the product of the last and this opening, ½ k κ₁κ₂:
+                    # on the linear envelope the energy dissipated from κ₁ to
+                    # κ₂ is ½ (σ₁κ₂ − σ₂κ₁) = ½ k κ₁κ₂ (D₂ − D₁) exactly, for
+                    # any increment (κ₁ at least the elastic limit f_t/k, κ₂
+                    # at most the opening 2 G_f/f_t where it is lost), as the
+                    # mixed-mode branch books it; ½ k κ₂² overstated a Newton
+                    # increment's (+16 % on 6 increments of softening)
                     y = 0.5 * (kn * en * en + ks * es * es + kt * et * et)
+                    ft, gf = law_params[li, P_FT], law_params[li, P_GF]
+                    y *= max(k_old, ft * area / kn) * min(en, 2.0 * gf / ft) / (en * en)
                     spring_wf[s] += y * (dnew - dmg)
                     dmg = dnew
                     spring_dmg[s] = dmg

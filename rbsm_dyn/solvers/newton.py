@@ -62,7 +62,7 @@ import scipy.sparse.linalg as spla
 
 from ..model import new_state
 from ..physics.integrate import DISPLACEMENT, FREE, VELOCITY
-from ..physics.laws import (BROKEN, P_COH, P_CRIT, P_FT, P_GF, P_GS, P_MU, P_RS, P_RUPT,
+from ..physics.laws import (BROKEN, P_COH, P_CRIT, P_EPSCR, P_FT, P_GF, P_GS, P_MU, P_RS, P_RUPT,
                             P_SY, P_TANPHI, P_TENSION)
 from ..physics.laws.plastic import MOHR_COULOMB, plastic_return
 from ..physics.laws.rupture import MIXED, SOFTENING, mixed_mode_damage, softening_damage
@@ -83,6 +83,7 @@ SLIP_FLOOR = 1e-2       # a slipping face's tangent along the slip / its secant 
 OPEN_FRACTION = 1e-6    # secant stiffness of an open crack / the intact spring's
 LINE_SEARCH = (0.5, 4.0)   # bounds of the line-search step
 GEOMETRIC_ANGLE = 1e-2    # rotation [rad] beyond which the geometric stiffness is added
+REF_FLOOR = 1e-3        # the force scale's floor, a share of the largest met (Newton.reference)
 DIVERGED_RATIO = 1e2    # residual ratio taken for a diverged iteration (the increment is cut)
 GMRES_MAX = 60          # GMRES iterations (no restart) before refactorising
 CG_MAX = 30             # CG iterations before the preconditioner is refactorised
@@ -148,13 +149,19 @@ class Newton:
     def norm(self, r):
         return float(np.linalg.norm((r * self.w)[self.free]))
 
+    ref_max = 0.0           # the largest force scale met so far
+
     def reference(self, r, lam, support):
         """Scale of the forces for the convergence ratio: the applied loads
         and the constraint forces (reactions), plus the support springs'
-        (support (N, 3) [N])."""
+        (support (N, 3) [N]); at least REF_FLOOR of the largest met so far,
+        so that a specimen broken through (no force left) converges on
+        forces small against those it carried, not on round-off."""
         applied = np.linalg.norm((lam * self.F * self.w))
         cons = np.linalg.norm((r * self.w)[~self.free])
-        return applied + cons + np.linalg.norm(support)
+        ref = applied + cons + np.linalg.norm(support)
+        self.ref_max = max(self.ref_max, ref)
+        return max(ref, REF_FLOOR * self.ref_max)
 
     # -- linear solves -----------------------------------------------------
     lu = None
@@ -668,7 +675,7 @@ def probe_functional(model, state, plan):
     and its linearisation δτ = c·δU (translations; a material point's
     rotation lever r × e)."""
     n = model.n_bodies
-    kind, a, b, proj = plan
+    kind, a, b, proj = plan[:4]
     if isinstance(proj, str):
         if proj == "magnitude":
             raise ValueError("a probe with component magnitude cannot control a static run: "
@@ -727,15 +734,33 @@ def run(case, model, recorder, *, max_steps=None, progress=None):
     iterations = []
     peak = 0.0
     sign = 1.0 if target_end >= pos else -1.0
-    while sign * (target_end - pos) > 1e-12 * max(abs(target_end), d_max):
+    controlled = control is not None
+    # plain displacement control switches to the opening of the crack by
+    # itself once cracking starts (_auto_control)
+    auto = not controlled and bool(np.any(it_.disp)) and state.spring_dmg is not None \
+        and len(state.spring_dmg) > 0
+    name = None if control is None else control.probe
+    while (auto and controlled and np.isinf(target_end)) or \
+            sign * (target_end - pos) > 1e-12 * max(abs(target_end), d_max):
         step = min(d, sign * (target_end - pos))
         saved = _save(state)
         lam_saved = lam
         for cut in range(MAX_CUTS + 1):
             goal = pos + sign * step
             ok, lam, its, ratio = _increment(it_, state, lam, goal, plan, sol.tolerance,
-                                             control is not None)
+                                             controlled)
             total += its
+            if controlled and auto and ok and lam > 1.0:
+                # past the displacement the case asks for: the last stretch
+                # under displacement control again, to λ = 1 exactly
+                _restore(state, saved)
+                ok, lam, its2, ratio = _increment(it_, state, lam_saved, 1.0, None,
+                                                  sol.tolerance, False)
+                total += its2
+                its += its2
+                if ok:
+                    goal, target_end = pos, pos
+                    break
             if ok:
                 break
             _restore(state, saved)
@@ -744,8 +769,7 @@ def run(case, model, recorder, *, max_steps=None, progress=None):
             if max_steps is not None and total >= max_steps:
                 break
         if not ok:
-            what = (f"{control.probe} = {goal:.4g}" if control is not None
-                    else f"λ = {goal:.4g}")
+            what = (f"{name} = {goal:.4g}" if controlled else f"λ = {goal:.4g}")
             msg = (f"increment {len(iterations) + 1} ({what}) did not converge in "
                    f"{NEWTON_MAX_IT} Newton iterations after {MAX_CUTS} halvings: residual "
                    f"ratio {ratio:.3g} > tolerance {sol.tolerance:g}")
@@ -753,6 +777,22 @@ def run(case, model, recorder, *, max_steps=None, progress=None):
             recorder.fail(msg)
             raise RunFailed(msg)
         it_.trial(state, commit=True)
+        if auto and not controlled and np.any(_cracking(m, state)):
+            # cracking has started in this increment: it is made again from
+            # the last converged state with the opening of the crack it
+            # started as the path parameter (_auto_control; a whole
+            # increment of displacement can jump past the peak onto the
+            # far side of a snap-back, where more than the crack has broken)
+            plan = _auto_control(it_, state)
+            if plan is not None:
+                _restore(state, saved)
+                lam = lam_saved
+                tau, _ = probe_functional(m, state, plan)
+                pos, d_max = tau, _auto_increment(it_, state, plan, len(iterations))
+                d = d_max
+                name = "the crack opening"
+                controlled, sign, target_end = True, 1.0, np.inf
+                continue
         pos = goal
         iterations.append(its)
         d = min(d_max, step * 1.5) if its <= EASY_IT else step
@@ -761,17 +801,79 @@ def run(case, model, recorder, *, max_steps=None, progress=None):
         load = abs(_load(it_, state, lam))
         peak = max(peak, load)
         if progress:
-            frac = 1.0 - abs(target_end - pos) / max(abs(target_end - (0.0 if control is None
-                                                                          else tau0)), 1e-300)
+            if control is None:
+                frac = min(abs(lam), 1.0)        # (λ also under the crack-opening control)
+            else:
+                frac = 1.0 - abs(target_end - pos) / max(abs(target_end - tau0), 1e-300)
             progress.update(100 * frac, lam, ratio, label="residual")
         if control is not None and control.stop_fraction and peak > 0 \
                 and load < control.stop_fraction * peak:
             break
+        if auto and controlled and max_steps is None and len(iterations) > AUTO_MAX_INCREMENTS:
+            msg = (f"the crack-opening control of plain displacement control took "
+                   f"{AUTO_MAX_INCREMENTS} increments without reaching the displacement the "
+                   f"case asks for (λ = {lam:.4g}); give solver.control (a CMOD probe)")
+            recorder.fail(msg)
+            raise RunFailed(msg)
         if max_steps is not None and total >= max_steps:
             return dict(iterations=iterations, wall_time=_time.perf_counter() - t_wall,
                         state=state, converged=False)
     return dict(iterations=iterations, wall_time=_time.perf_counter() - t_wall, state=state,
                 converged=True)
+
+
+#: increments the automatic crack-opening control may take before it gives up
+AUTO_MAX_INCREMENTS = 2000
+
+
+def _cracking(m, state):
+    """The springs damaged since the start (a cut's or an interface's are
+    broken from the start: not cracking)."""
+    return (state.spring_dmg > 0.0) & (m.spring_state0 < BROKEN)
+
+
+def _auto_control(nt, state):
+    """Indirect control for a run given by prescribed displacements alone
+    (no solver.control), once cracking starts: the path parameter becomes
+    the normal opening of the most open damaged spring between two cells
+    at `state` (the increment in which cracking started), a relative
+    displacement that only grows while the crack runs, so the softening
+    branch and a snap-back are followed (de Borst 1987's indirect
+    displacement control, on the most opening point of the process zone).
+    Returns the plan for probe_functional, None when only supports are
+    damaged."""
+    m = nt.m
+    n = m.n_bodies
+    gap = np.empty((m.n_springs, 3))
+    spring_local_gap(model_arrays(m)[1], body_state(state), gap)
+    sb = m.spring_bodies
+    damaged = (_cracking(m, state) & np.isfinite(state.spring_kappa) & (sb[:, 1] < n))
+    if not np.any(damaged):
+        return None                   # (only supports damaged: no crack to follow)
+    s = int(np.flatnonzero(damaged)[np.argmax(gap[damaged, 0])])
+    a, b = int(sb[s, 0]), int(sb[s, 1])
+    R0 = quat_matrix_np(m.body_quat0[[a, b]])
+    pa = m.body_pos0[a] + R0[0] @ m.spring_arm_a[s]
+    pb = m.body_pos0[b] + R0[1] @ m.spring_arm_b[s]
+    normal = quat_matrix_np(m.spring_frame0[s][None])[0][:, 0]
+    return ("points", (a, m.spring_arm_a[s], pa), (b, m.spring_arm_b[s], pb), normal, s)
+
+
+def _auto_increment(nt, state, plan, done):
+    """The increment of the crack-opening control: a twentieth of the opening
+    at which the spring's law has lost its strength (linear softening,
+    2 G_f/f_t: Hillerborg's characteristic opening; a strain law's ε_cr h),
+    or the opening's mean growth per increment so far when larger."""
+    m = nt.m
+    s = plan[4]
+    P = m.law_params[m.spring_law[s]]
+    w_c = 0.0
+    if P[P_FT] > 0.0 and np.isfinite(P[P_GF]):
+        w_c = 2.0 * P[P_GF] / P[P_FT]
+    elif P[P_EPSCR] > 0.0:
+        w_c = P[P_EPSCR] * m.spring_h[s]
+    tau, _ = probe_functional(m, state, plan)
+    return max(0.05 * w_c, abs(tau) / max(done, 1), 1e-12)
 
 
 def _increment(nt, state, lam, goal, plan, tol, controlled):

@@ -1,0 +1,74 @@
+"""Plain displacement control through a snap-back (issue 30: Newton fast
+without a `control` key; solvers/newton.py _auto_control).
+
+A bar of blocks notched all round (cuts; the ligament the middle cell's
+face of a 3 × 3 section, the two layers beside it of a softening
+material, the rest elastic) pulled by its end cells, written as a user
+first writes it: a prescribed displacement, the default static settings.
+On blocks every ligament spring point carries the same traction, so the
+peak is f_t × ligament area and the crack dissipates G_f × ligament area
+(the block lattice's calibration factors are 1: docs/calibration.md).  The
+bar stores 1.5 × G_f A_lig of elastic energy at the peak, so the load
+against the end displacement snaps back: displacement control alone
+cannot follow it, and the run switches to the crack's opening once
+cracking starts."""
+import textwrap
+
+import numpy as np
+import pytest
+
+E, FT, GF = 30.0e9, 3.0e6, 2.0
+A_LIG = 0.003 * 0.003              # the middle cell's face of a 3 × 3 section
+
+BAR = """
+name: den-bar
+domain: {box: [[0, 0, 0], [0.2, 0.009, 0.009]]}
+mesh: {kind: blocks, divisions: [40, 3, 3]}
+materials:
+  elastic: {density: 2400, young: 30.0e9, poisson: 0.0}
+  c: {density: 2400, young: 30.0e9, poisson: 0.0,
+      rupture: {fracture_energy: 2.0, tensile_strength: 3.0e6, law: tension}}
+groups:
+  weak: {box: [[0.095, -1, -1], [0.105, 1, 1]], material: c}    # the two layers at the notch
+  left: {box: [[0, -1, -1], [0.005, 1, 1]]}
+  right: {box: [[0.195, -1, -1], [1, 1, 1]]}
+cuts:      # the section at x = 0.1 but its middle cell's face
+  - {point: [0.1, 0, 0], normal: [1, 0, 0], within: [[0.09, -1, -1], [0.11, 0.003, 1]]}
+  - {point: [0.1, 0, 0], normal: [1, 0, 0], within: [[0.09, 0.006, -1], [0.11, 1, 1]]}
+  - {point: [0.1, 0, 0], normal: [1, 0, 0], within: [[0.09, 0.003, -1], [0.11, 0.006, 0.003]]}
+  - {point: [0.1, 0, 0], normal: [1, 0, 0], within: [[0.09, 0.003, 0.006], [0.11, 0.006, 1]]}
+boundary:
+  - {group: left, fix: all}
+  - {group: right, displacement: [1.0e-5, 0, 0]}
+  - {group: right, fix: [rx, ry, rz]}
+solver: {mode: static, load_steps: 20}
+output:
+  probes:
+    P: {group: right, quantity: reaction, component: x, reduce: sum}
+    u: {group: right, quantity: displacement, component: x, reduce: mean}
+"""
+
+
+def test_displacement_control_follows_a_snap_back(run_case):
+    # the elastic energy of the bar at the peak (its gross section at
+    # f_t A_lig / A, the ligament's own layer neglected) against G_f A_lig
+    area = 0.009 ** 2
+    stored = (FT * A_LIG / area) ** 2 / (2 * E) * 0.2 * area
+    assert stored > 1.4 * GF * A_LIG
+    h = run_case(textwrap.dedent(BAR))
+    assert h.status == "completed"
+    o = h.observables
+    P, u = np.asarray(o["P"]), np.asarray(o["u"])
+    peak = P.max()
+    # no state carries more than the strength; the path, sampled at crack
+    # openings a twentieth of 2 G_f/f_t apart, comes within 10 % of it
+    assert 0.9 * FT * A_LIG <= peak <= (1 + 1e-6) * FT * A_LIG
+    k = int(np.argmax(P))
+    # past the peak the end moved back (the snap-back was followed) and the
+    # load fell below half the peak; the run ends at the displacement asked
+    assert u[k:].min() < u[k] - 1e-7
+    assert P[-1] < 0.5 * peak
+    assert u[-1] == pytest.approx(1.0e-5, rel=1e-6)
+    # the crack dissipated G_f per unit of ligament area, booked exactly for
+    # any increment on the linear envelope (physics/inelastic.py): 0.1 %
+    assert o["fracture"][-1] == pytest.approx(GF * A_LIG, rel=1e-3)
