@@ -115,10 +115,11 @@ def _scaled_row_sums(spring_bodies, spring_arm_a, spring_arm_b, rot, frames, spr
 
 
 @nb.njit(cache=True)
-def _deformed_springs(spring_bodies, spring_arm_a, spring_arm_b, spring_frame0, spring_k,
-                      spring_kappa, spring_state, body_pos, body_rot, body_dq, arm_a, arm_b,
-                      frames, k):
-    """The springs of a deformed state as the stiffness sees them: each
+def _deformed_springs(spring_in, pose, out):
+    """The springs of a deformed state as the stiffness sees them (spring_in:
+    the model's spring_bodies, arms, frames, stiffnesses and the state's
+    spring_kappa, spring_state; pose: body_pos, body_rot, body_dq; out:
+    levers a, b, frames, stiffnesses): each
     spring's force acts at the midpoint m of its two material points
     (physics/springs.py deposit_b), so its levers are m − x_a = l_a + g/2
     and m − x_b = l_b − g/2 (g the world gap), given here in each body's
@@ -130,6 +131,10 @@ def _deformed_springs(spring_bodies, spring_arm_a, spring_arm_b, spring_frame0, 
     1.25 mm levers (cases/impulsive_beam.yaml at 25 mm deflection) the
     exact stable step falls to 0.64 of the undeformed one, which this
     geometry reproduces to 3 digits (tests/test_step_adapt.py)."""
+    (spring_bodies, spring_arm_a, spring_arm_b, spring_frame0, spring_k, spring_kappa,
+     spring_state) = spring_in
+    body_pos, body_rot, body_dq = pose
+    arm_a, arm_b, frames, k = out
     inelastic = spring_state.shape[0] > 0
     for s in range(spring_bodies.shape[0]):
         a = spring_bodies[s, 0]
@@ -179,9 +184,9 @@ def deformed_geometry(model, state):
     kappa = state.spring_kappa if state.spring_kappa is not None else np.zeros(0)
     sstate = (state.spring_state if state.spring_state is not None
               else np.zeros(0, dtype=np.int8))
-    _deformed_springs(model.spring_bodies, model.spring_arm_a, model.spring_arm_b,
-                      model.spring_frame0, model.spring_k, kappa, sstate, state.body_pos,
-                      state.body_rot, state.body_dq, arm_a, arm_b, frames, k)
+    _deformed_springs((model.spring_bodies, model.spring_arm_a, model.spring_arm_b,
+                       model.spring_frame0, model.spring_k, kappa, sstate),
+                      (state.body_pos, state.body_rot, state.body_dq), (arm_a, arm_b, frames, k))
     return arm_a, arm_b, state.body_rot, frames, k
 
 

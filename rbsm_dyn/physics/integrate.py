@@ -319,7 +319,7 @@ def _rotate(i, dt, keep, dt_c, damping_alpha, damping_local, follow, local, amp,
 @nb.njit(parallel=True, **JIT)
 def _dynamic_bodies_parallel(t, stepping, bodies, loads, bs):
     # the fields into locals before the loop (physics/arrays.py)
-    dt, damping_alpha, damping_local, _t0 = stepping
+    dt, damping_alpha, damping_local, t0 = stepping
     body_mass, body_inertia, body_pos0, body_quat0 = bodies
     (body_fext, body_mext, body_ffol, body_mfol, body_load_hist, gravity, dof_kind, dof_value,
      dof_hist, hist_ptr, hist_t, hist_a, ground_hist, ground_dir) = loads
@@ -363,7 +363,7 @@ def _dynamic_bodies_parallel(t, stepping, bodies, loads, bs):
 @nb.njit(**JIT)
 def _dynamic_bodies_serial(t, stepping, bodies, loads, bs):
     # the fields into locals before the loop (physics/arrays.py)
-    dt, damping_alpha, damping_local, _t0 = stepping
+    dt, damping_alpha, damping_local, t0 = stepping
     body_mass, body_inertia, body_pos0, body_quat0 = bodies
     (body_fext, body_mext, body_ffol, body_mfol, body_load_hist, gravity, dof_kind, dof_value,
      dof_hist, hist_ptr, hist_t, hist_a, ground_hist, ground_dir) = loads

@@ -464,7 +464,7 @@ def _turn(i, dt, keep, dt_c, damping_alpha, damping_local, follow, local, amp, w
 
 @nb.njit(parallel=True, **JIT)
 def _bodies_parallel(t, stepping, pbodies, ploads, ps):
-    dt, damping_alpha, damping_local, _t0 = stepping
+    dt, damping_alpha, damping_local, t0 = stepping
     body_mass, body_jz, body_pos0 = pbodies
     (body_fext, body_ffol, body_load_hist, gravity, dof_kind, dof_value, dof_hist, hist_ptr,
      hist_t, hist_a, ground_hist, ground_dir) = ploads
@@ -498,7 +498,7 @@ def _bodies_parallel(t, stepping, pbodies, ploads, ps):
 
 @nb.njit(**JIT)
 def _bodies_serial(t, stepping, pbodies, ploads, ps):
-    dt, damping_alpha, damping_local, _t0 = stepping
+    dt, damping_alpha, damping_local, t0 = stepping
     body_mass, body_jz, body_pos0 = pbodies
     (body_fext, body_ffol, body_load_hist, gravity, dof_kind, dof_value, dof_hist, hist_ptr,
      hist_t, hist_a, ground_hist, ground_dir) = ploads
