@@ -376,12 +376,13 @@ def report(results, args, argv):
              "Command: `" + " ".join(shlex.quote(a) for a in
                                      ["python", "benchmarks/restart_cases.py", *argv]) + "`", "",
              "| case | kills | restarts bitwise equal | other runs equal (no checkpoint yet "
-             "/ ended before the kill) | datasets compared (per file) | wall time |",
+             "/ ended before the kill) | datasets compared, all files (per file; attributes "
+             "per file) | wall time |",
              "|---|---|---|---|---|---|"]
     for r in results:
         lines.append(f"| {r['name']} | {r['kills']} | {r['restarted_equal']}/{r['restarted']} | "
-                     f"{r['others_equal']}/{r['others']} | {r['n_ds_total']} ({r['n_ds']}, and "
-                     f"{r['n_attr']} attributes) | {r['wall']:.0f} s |")
+                     f"{r['others_equal']}/{r['others']} | {r['n_ds_total']} ({r['n_ds']}; "
+                     f"{r['n_attr']}) | {r['wall']:.0f} s |")
     lines += ["", "Wall time: the whole case (warm-up, reference, the killed runs, the "
               "restarts or new runs, the comparisons), one run at a time, nice 19, "
               "on a shared host.", ""]
