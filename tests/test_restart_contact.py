@@ -7,6 +7,7 @@ random moments and continued with --restart: the restarted run must end
 in the uninterrupted run's state bit for bit -- every State array and the
 contact pairs, slip memory, separating faces and friction work -- and
 write the same history."""
+import shutil
 import textwrap
 
 import numpy as np
@@ -106,3 +107,49 @@ def test_twenty_random_sigkills_of_a_contact_run_restart_bitwise(ref, tmp_path):
             restarted += 1
         assert_same_run(out, ref_out)
     assert restarted >= 8, restarted
+
+
+def _h5_items(path):
+    """{name: (dtype, shape, bytes or value, attributes)} of every group and
+    dataset of an HDF5 file."""
+    import h5py
+    out = {}
+
+    def see(name, obj):
+        attrs = {k: np.asarray(v) for k, v in obj.attrs.items()}
+        if isinstance(obj, h5py.Dataset):
+            v = np.asarray(obj[()])
+            data = (v.dtype.str, v.shape, v.tolist() if v.dtype.kind in "OSUV" else v.tobytes())
+        else:
+            data = None
+        out[name] = (data, attrs)
+    with h5py.File(str(path), "r") as f:
+        see("/", f)
+        f.visititems(see)
+    return out
+
+
+def test_restart_with_no_step_left_leaves_the_uninterrupted_runs_file(ref, tmp_path):
+    """A run killed after its end-of-run checkpoint but before it set
+    status "completed" (its file: the finished one, status "running"):
+    --restart has no step left to make and completes the file equal to the
+    uninterrupted run's, every dataset bitwise and every attribute -- it
+    does not write the end-of-run checkpoint again into the other slot,
+    which holds the previous checkpoint, nor flip /checkpoint current
+    (benchmarks/restart_cases.py found that on cases/impact_plate.yaml)."""
+    import h5py
+    case, ref_out = ref
+    out = tmp_path / "killed_at_the_end.h5"
+    shutil.copy(ref_out, out)
+    with h5py.File(out, "r+") as f:
+        f.attrs.modify("status", "running")
+        assert f["checkpoint"].attrs["current"] in (0, 1)
+        assert f["checkpoint/slot0/step"][()] != f["checkpoint/slot1/step"][()]
+    assert main([str(case), "--restart", str(out), "--quiet"]) == 0
+    got, want = _h5_items(out), _h5_items(ref_out)
+    assert sorted(got) == sorted(want)
+    for name, (data, attrs) in want.items():
+        assert got[name][0] == data, name
+        assert sorted(got[name][1]) == sorted(attrs), name
+        for k, v in attrs.items():
+            assert np.array_equal(got[name][1][k], v), (name, k)
