@@ -130,17 +130,15 @@ def continuum_yield(case) -> list:
 def default_static_method(case, n_bodies=None) -> str:
     """solver.method of a static case that does not give one: `newton`
     (Newton iterations with the consistent tangent: elastic, plastic and
-    softening statics, large rotations; issue 30), unless the case gives
-    keys of the relaxation (RELAXATION_KEYS) or has interfaces between
-    parts (frictional contact, where Newton stalls) or continuum yield
-    (continuum_yield), or more than
+    softening statics, large rotations, frictional contact interfaces;
+    issue 30), unless the case gives keys of the relaxation
+    (RELAXATION_KEYS) or has continuum yield (continuum_yield), or more than
     NEWTON_DEFAULT_MAX_BODIES bodies (``n_bodies``, when known); then
     `relaxation`.  solver.control needs `newton`."""
     s = case.solver
     if s.control is not None or s.time is not None:
         return "newton"
-    if (any(s.given(k) for k in RELAXATION_KEYS) or case.interfaces
-            or continuum_yield(case)):
+    if any(s.given(k) for k in RELAXATION_KEYS) or continuum_yield(case):
         return "relaxation"
     if n_bodies is not None and n_bodies > NEWTON_DEFAULT_MAX_BODIES:
         return "relaxation"

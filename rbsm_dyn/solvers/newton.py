@@ -46,7 +46,8 @@ Control:
   followed as long as the probe grows.
 An increment that does not converge in NEWTON_MAX_IT iterations is cut in
 half (from the last converged state) up to MAX_CUTS times; an increment
-that converges in ≤ EASY_IT iterations lets the next one grow by 1.5 (to
+that converges lets the next one grow by √(DESIRED_IT/iterations), between
+1 and 1.5 (Crisfield vol. 1, §9.5's rule; 1.5 at ≤ DESIRED_IT/2.25) (to
 the given increment at most).  Every converged increment is a frame
 (`time` = λ, `step` = the total iteration count).
 """
@@ -76,19 +77,29 @@ from .passes import Options, aux_stress, body_state, history, model_arrays, para
 from .statics import apply_increment, record_frame
 
 NEWTON_MAX_IT = 40      # iterations per increment before it is cut
+ACTIVE_TOUCHING_ONLY = True   # the active set settled only while some contact face touches at zero gap
 ACTIVE_MAX = 6          # linear solves of an increment's first iteration that settle the contact set
 MAX_CUTS = 12           # halvings of one increment
-EASY_IT = 5             # an increment converged in this many lets the next grow
+DESIRED_IT = 11         # iterations per increment the increment size aims at
 SLIP_FLOOR = 1e-2       # a slipping face's tangent along the slip / its secant (regularisation)
 OPEN_FRACTION = 1e-6    # secant stiffness of an open crack / the intact spring's
 LINE_SEARCH = (0.5, 4.0)   # bounds of the line-search step
 GEOMETRIC_ANGLE = 1e-2    # rotation [rad] beyond which the geometric stiffness is added
 REF_FLOOR = 1e-3        # the force scale's floor, a share of the largest met (Newton.reference)
+TANGENT_BACKTRACK = 2   # halvings of a tangent step that raised the residual before the secant
 DIVERGED_RATIO = 1e2    # residual ratio taken for a diverged iteration (the increment is cut)
 GMRES_MAX = 60          # GMRES iterations (no restart) before refactorising
 CG_MAX = 30             # CG iterations before the preconditioner is refactorised
 CG_RTOL = 1e-10         # relative residual of each linear solve
 LOWRANK_MAX = 3000      # DOFs of the changed springs' bodies before K0 is refactorised
+# columns of K0⁻¹ one growth of the changed set may take (when it also
+# more than doubles the set); past it K0 is refactorised instead, which
+# costs about as much (symmetric SuperLU in nested-dissection order: 0.37 s
+# against 3.3 ms a column on the 1 760-cell beam of three-point bending,
+# 0.89 s against 7.3 ms on the 2 866-cell one of benchmarks/quasi_static.py);
+# a wild iterate that changes thousands of springs took 10-15 s of growth
+GROW_MAX_COLUMNS = 120
+STALL_IT = 8            # iterations without halving the residual after which an increment is cut
 MATRIX_GMRES = 20       # GMRES iterations on the capacitance matrix before it is refactorised
 CAPACITANCE_RTOL = 1e-4  # relative residual of a low-rank solve (of its right-hand side)
 
@@ -117,6 +128,9 @@ class Newton:
         from .assembly import BlockPattern
         self.pattern = BlockPattern(m)
         self.order = _dof_order(m, self.free)
+        # the springs' per-point constants (Model's properties gather them
+        # from the faces at every access)
+        self.laws = (m.spring_k, m.spring_area, m.spring_h, m.spring_law, m.law_params)
         self.K_aux = None
         if m.poisson_on:
             from ..physics.poisson import poisson_stiffness
@@ -160,6 +174,7 @@ class Newton:
         applied = np.linalg.norm((lam * self.F * self.w))
         cons = np.linalg.norm((r * self.w)[~self.free])
         ref = applied + cons + np.linalg.norm(support)
+        self.raw = ref
         self.ref_max = max(self.ref_max, ref)
         return max(ref, REF_FLOOR * self.ref_max)
 
@@ -222,11 +237,11 @@ class Newton:
             spring_local_gap(model_arrays(m)[1], body_state(state), gap)
             cgap = gap if self.active is None else self.active
             self.tangent = bool(_local_tangents(
-                (m.spring_k, m.spring_area, m.spring_h, m.spring_law, m.law_params),
+                self.laws,
                 (sstate, dmg), (state.spring_dmg, state.spring_kappa, state.spring_dp), gap,
                 cgap, OPEN_FRACTION, SLIP_FLOOR, self.use_tangent, k))
         else:
-            k[:, [0, 1, 2], [0, 1, 2]] = m.spring_k
+            k[:, [0, 1, 2], [0, 1, 2]] = self.laws[0]
         n = self.n
         dq = quat_mul_np(state.body_quat[:n], _conj(m.body_quat0[:n]))
         dq = np.vstack([dq, [[1.0, 0, 0, 0]]])
@@ -274,7 +289,7 @@ class Newton:
                     self.low_rank = None
                     return _Full(self, self.stiffness(state, tri, local))
                 self.factorizations += 1
-                self.low_rank.update(k)
+                self.low_rank.update(k, limit=False)
             return self.low_rank
         return _Full(self, self.stiffness(state, tri, local))
 
@@ -327,13 +342,28 @@ class _LowRank:
         self.nt = nt
         self.rot = quat_matrix_np(state.body_quat)
         self.frames = quat_matrix_np(frames)
-        self.k0 = k.copy()
-        K = nt.pattern.matrix(m, state.body_quat, frames, k)
+        # K0 symmetric positive definite: a spring whose local stiffness is
+        # not symmetric (a damage or friction tangent) enters K0 by its
+        # diagonal, floored at OPEN_FRACTION of its elastic stiffness, and
+        # the rest by the update (it is among the changed springs).  SuperLU
+        # then keeps the nested-dissection order without pivoting: on the
+        # 1 760-cell beam of three-point bending 5.5 M entries in the
+        # factors against 18 M with partial pivoting, a factorisation in
+        # 0.37 s against 3.1 s and a column of K0⁻¹ in 3.3 ms against 16 ms
+        # (twice, K0⁻¹ and K0⁻ᵀ)
+        k0 = k.copy()
+        asym = np.flatnonzero(np.any(k != k.transpose(0, 2, 1), axis=(1, 2)))
+        if asym.size:
+            d = np.maximum(np.diagonal(k[asym], axis1=1, axis2=2), OPEN_FRACTION * nt.laws[0][asym])
+            k0[asym] = 0.0
+            k0[asym[:, None], [0, 1, 2], [0, 1, 2]] = d
+        self.k0 = k0
+        K = nt.pattern.matrix(m, state.body_quat, frames, k0)
         if nt.K_aux is not None:
             K = (K + nt.K_aux).tocsr()
         f = nt.free
-        self.symmetric = bool(np.array_equal(k, k.transpose(0, 2, 1)))
-        self.lu = _factorize(sp.csr_matrix(K[f][:, f]), nt.order, self.symmetric)
+        self.symmetric = True
+        self.lu = _factorize(sp.csr_matrix(K[f][:, f]), nt.order, True)
         self.kfp_up = K[f][:, nt.disp] @ nt.Up[nt.disp]
         self.free_pos = np.full(6 * nt.n, -1)
         self.n_free = int(f.sum())
@@ -347,9 +377,11 @@ class _LowRank:
         self.M = None
         self._changed = np.empty(m.n_springs, dtype=np.int64)
 
-    def update(self, k):
+    def update(self, k, limit=True):
         """ΔK of the local stiffnesses k; False when D would pass
-        LOWRANK_MAX DOFs (the caller renews)."""
+        LOWRANK_MAX DOFs, or (`limit`) when this growth alone would take
+        more than GROW_MAX_COLUMNS columns of K0⁻¹ and more than D holds
+        (a wild iterate: the caller renews)."""
         m = self.nt.m
         n = self.nt.n
         changed = self._changed[:changed_springs(k, self.k0, self._changed)]
@@ -359,7 +391,8 @@ class _LowRank:
         bodies = np.unique(m.spring_bodies[changed].reshape(-1))
         bodies = bodies[bodies < n]
         new = bodies[self.slot[bodies] < 0]
-        if 6 * (len(self.bodies) + len(new)) > LOWRANK_MAX:
+        if 6 * (len(self.bodies) + len(new)) > LOWRANK_MAX or (
+                limit and 6 * len(new) > max(GROW_MAX_COLUMNS, len(self.pos))):
             return False
         if new.size:
             self._grow(new)
@@ -795,7 +828,7 @@ def run(case, model, recorder, *, max_steps=None, progress=None):
                 continue
         pos = goal
         iterations.append(its)
-        d = min(d_max, step * 1.5) if its <= EASY_IT else step
+        d = min(d_max, step * min(max(math.sqrt(DESIRED_IT / max(its, 1)), 1.0), 1.5))
         _set_reactions(it_, state, lam)
         record_frame(recorder, m, state, total, lam, ratio)
         load = abs(_load(it_, state, lam))
@@ -881,6 +914,7 @@ def _increment(nt, state, lam, goal, plan, tol, controlled):
     probe = goal (indirect control).  Returns (converged, λ, iterations,
     residual ratio)."""
     m = nt.m
+    lam_start = lam
     if not controlled:
         lam = goal
     ratio = np.inf
@@ -890,6 +924,7 @@ def _increment(nt, state, lam, goal, plan, tol, controlled):
     # iteration astray: Rots & Invernizzi 2004)
     nt.use_tangent = True
     back = None
+    seen = []
     for k in range(1, NEWTON_MAX_IT + 1):
         nt.set_prescribed(state, lam)
         r, tri = nt.residual(state, lam)
@@ -899,21 +934,48 @@ def _increment(nt, state, lam, goal, plan, tol, controlled):
         if back is not None and not ratio < prev:
             # a step of the consistent tangent raised the residual (it can
             # send a softening lattice far astray, a cell turned by 0.02 rad
-            # on the notched beam): undone, the secant from here on
-            motion, lam, ratio = back
+            # on the notched beam; or a contact face at a support opens or
+            # starts slipping): halved back along the same direction
+            # (backtracking, Dennis & Schnabel 1983, §6.3) up to
+            # TANGENT_BACKTRACK times; if the residual still has not fallen,
+            # undone, and the secant from here on
+            motion, lam_b, ratio_b, dU_b, dlam_b, tries = back
             _restore(state, motion)
+            if tries < TANGENT_BACKTRACK:
+                dU_b, dlam_b = 0.5 * dU_b, 0.5 * dlam_b
+                lam = lam_b + dlam_b
+                apply_increment(m, state, dU_b.reshape(nt.n, 6))
+                back = (motion, lam_b, ratio_b, dU_b, dlam_b, tries + 1)
+                ratio = prev
+                continue
+            lam, ratio = lam_b, ratio_b
             nt.use_tangent = False
             nt.set_prescribed(state, lam)
             r, tri = nt.residual(state, lam)
             ref = nt.reference(r, lam, state.body_support[:nt.n])
         back = None
-        if k > 1 and (ref == 0.0 or ratio > DIVERGED_RATIO):
-            # no force left anywhere (every spring broken by a wild step: a
-            # residual of zero that is not equilibrium) or an imbalance far
-            # above the loads: the iteration has left the path; cut
-            return False, lam, k, ratio if ref > 0.0 else np.inf
+        if k > 1 and ((nt.raw == 0.0 and abs(lam - lam_start) > abs(lam_start))
+                      or ratio > DIVERGED_RATIO):
+            # no force left anywhere after λ more than doubled (every spring
+            # broken or parted by a wild step, the platen of three-point
+            # bending moved by metres: a residual of zero that is not the
+            # path's equilibrium; a specimen broken through on the path
+            # converges on REF_FLOOR) or an imbalance far above the loads:
+            # the iteration has left the path; cut
+            return False, lam, k, ratio if nt.raw > 0.0 else np.inf
         if k > 2 and not ratio < prev:
             nt.use_tangent = False
+        if k > 1:               # (not the converged residual the increment starts from)
+            seen.append(ratio)
+        if len(seen) > STALL_IT and ratio > tol and \
+                min(seen[-STALL_IT:]) > 0.5 * min(seen[:-STALL_IT]):
+            # stalled: the best residual of the last STALL_IT iterations is
+            # not half the best before them (a cell of the process zone
+            # switching between two states near the peak of three-point
+            # bending, where 40 iterations ended no better); cut now (a
+            # linear rate of convergence up to 0.5^(1/STALL_IT) = 0.917
+            # passes)
+            return False, lam, k, ratio
         if controlled:
             tau, c = probe_functional(m, state, plan)
             gap = goal - tau
@@ -965,6 +1027,9 @@ def _increment(nt, state, lam, goal, plan, tol, controlled):
                     break
                 now = np.empty((m.n_springs, 3))
                 spring_local_gap(model_arrays(m)[1], body_state(state), now)
+                if ACTIVE_TOUCHING_ONLY and not np.any(
+                        np.abs(now[contact, 0]) <= 1e-12 * nt.laws[2][contact]):
+                    break
                 closed = _contact_status(nt, state, now, contact) > 0
             dU, dlam = _combine(dU_r, dF, gap, cr, den, 1.0) if controlled else (dU_r, 0.0)
             if not np.all(np.isfinite(dU)):
@@ -1013,11 +1078,13 @@ def _increment(nt, state, lam, goal, plan, tol, controlled):
             lam += dlam
         if not np.all(np.isfinite(dU)):
             return False, lam, k, ratio
-        if nt.tangent and nt.use_tangent:
+        if nt.tangent and nt.use_tangent and k > 1:
             # (only a step of the damage tangent is undone: friction's and
             # plasticity's tangents stay, and undoing their step would
-            # repeat it)
-            back = (_save_motion(state), lam0, ratio)
+            # repeat it; not an increment's first step, the predictor, which
+            # raises the residual of the converged state it starts from by
+            # moving the load)
+            back = (_save_motion(state), lam0, ratio, dU.copy(), lam - lam0, 0)
         apply_increment(m, state, dU.reshape(nt.n, 6))
     return False, lam, NEWTON_MAX_IT, ratio
 
