@@ -15,14 +15,17 @@ consistent tangent while its damage grows), the consistent tangent of the
 return mapping for a yielding one (perfect plasticity: a zero modulus,
 floored at OPEN_FRACTION), a closed
 or touching contact at full stiffness (its tangential springs too when it
-has friction; the contact faces' active set of an increment's first step
-settled by a primal-dual active set, _increment), an open crack at 10⁻⁶ of it (Rots & Invernizzi
+has friction, at the consistent tangent of its Coulomb return while it
+slips; the contact faces' active set of an increment's first step
+settled by a primal-dual active set while some face touches at zero gap,
+_increment), an open crack at 10⁻⁶ of it (Rots & Invernizzi
 2004's secant "sequentially linear" stiffness is always positive, so the
 solve never meets a negative pivot on a softening branch; the rate of
 convergence is linear there, quadratic on elastic parts).  Linear
 solves (_LowRank): while no body has turned by more than GEOMETRIC_ANGLE,
 one SuperLU factorisation (scipy; nested-dissection order by METIS) of
-the first iteration's matrix K0 serves the whole run, the springs whose
+the first iteration's matrix K0 (made symmetric: an unsymmetric spring by
+its diagonal) serves the whole run, the springs whose
 stiffness has changed since (the fracture process zone) entering by
 Woodbury's identity on the DOFs of their bodies: on the 2 866-cell
 notched beam of benchmarks/quasi_static.py one factorisation instead of
