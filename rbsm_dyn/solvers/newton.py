@@ -369,7 +369,6 @@ class _LowRank:
         if nt.K_aux is not None:
             K = (K + nt.K_aux).tocsr()
         f = nt.free
-        self.symmetric = True
         self.lu = _factorize(sp.csr_matrix(K[f][:, f]), nt.order, True)
         self.kfp_up = K[f][:, nt.disp] @ nt.Up[nt.disp]
         self.free_pos = np.full(6 * nt.n, -1)
@@ -461,9 +460,9 @@ class _LowRank:
         E = np.zeros((self.n_free, len(p_new)))
         E[p_new, np.arange(len(p_new))] = 1.0
         X = self.lu.solve(E)
-        Xt = X if self.symmetric else self.lu.solve(E, trans="T")
         p_old = self.pos
-        self.Z = np.block([[self.Z, X[p_old]], [Xt[p_old].T, X[p_new]]])
+        # (K0 symmetric: Z's new rows are its new columns transposed)
+        self.Z = np.block([[self.Z, X[p_old]], [X[p_old].T, X[p_new]]])
         self.pos = np.concatenate([p_old, p_new])
         fd = dofs[self.free_pos[dofs] >= 0]
         self.loc[fd] = len(p_old) + np.arange(len(fd))
