@@ -227,6 +227,16 @@ def rigid_modes(model):
 def _free_rigid_motion(model, K, pres):
     """True if some rigid mode vanishes on the constrained DOFs `pres` and
     is also (to round-off) in the null space of K (no support holds it)."""
+    return free_rigid_modes(model, pres, K).shape[1] > 0
+
+
+def free_rigid_modes(model, pres, K=None):
+    """The rigid motions (6N, r) no constraint or support holds: the
+    combinations of rigid_modes that vanish on the constrained DOFs `pres`
+    and lie (to round-off) in the null space of K (the matrix; None: a
+    rigid motion strains no spring between two bodies, so without support
+    springs every such combination is free, else K is assembled).  r = 0
+    for a supported model."""
     phi = rigid_modes(model)
     held = phi[pres]
     # vt (6, 6) of the held rows: the full U (rows × rows) is never needed
@@ -236,11 +246,17 @@ def _free_rigid_motion(model, K, pres):
     rank = int(np.sum(sv > 1e-10 * max(1.0, sv.max(initial=0.0))))
     combos = vt[rank:].T                               # (6, 6 - rank)
     if combos.shape[1] == 0:
-        return False
+        return phi[:, :0]
     modes = phi @ combos
+    if K is None:
+        if not np.any(model.spring_bodies[:, 1] == model.n_bodies):
+            return modes
+        K = stiffness_matrix(model)
     scale = abs(K).sum(axis=1).max()
-    resid = np.linalg.norm(K @ modes, axis=0)
-    return bool(np.any(resid <= 1e-9 * scale * np.linalg.norm(modes, axis=0)))
+    # the null space of K on the span of the combinations (some may be
+    # held by springs to the ground or support springs, others not)
+    _, sv, v = np.linalg.svd(K @ modes, full_matrices=False)
+    return modes @ v[sv <= 1e-9 * scale * np.linalg.norm(modes, axis=0).max()].T
 
 
 def spring_forces(model, U):

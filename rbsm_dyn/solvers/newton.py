@@ -73,7 +73,7 @@ from ..physics.laws.rupture import MIXED, SOFTENING, mixed_mode_damage, softenin
 from ..physics.passes import spring_forces
 from ..physics.rotation import quat_matrix_np, quat_mul_np
 from ..physics.springs import spring_local_gap
-from ..stiffness import model_load
+from ..stiffness import free_rigid_modes, model_load
 from .explicit import RunFailed
 from .assembly import assemble_triplets, changed_springs
 from .passes import Options, aux_stress, body_state, history, model_arrays, parallel_arg
@@ -127,6 +127,13 @@ class Newton:
         self.free = kind == FREE
         self.disp = kind == DISPLACEMENT
         self.Up = np.where(self.disp, m.dof_value.reshape(-1), 0.0)   # full amplitude
+        # a model nothing holds (a disc between two pressures): its free
+        # rigid motions are held at one body and the loads' imbalance is
+        # balanced by inertia relief (_hold_rigid_motion)
+        self.held, self.relief, self.note = _hold_rigid_motion(m, self.free, self.F)
+        if self.relief is not None:
+            self.free[self.held] = False
+            self.F = self.F - self.relief
         self.arm = float(np.median(np.linalg.norm(m.spring_arm_a, axis=1))) or 1.0
         # the norm weights: moments divided by the median arm (as relax.py)
         w = np.ones((n, 6))
@@ -640,6 +647,50 @@ def _factorize(A, order, symmetric):
     return _Permuted(lu, order)
 
 
+def _hold_rigid_motion(m, free, F):
+    """(held DOFs, relief (N·6) or None, note) for a model whose supports
+    leave r > 0 rigid motions free (stiffness.free_rigid_modes; a body
+    under self-balancing loads): r components of the body nearest the
+    centre of mass are held (those on which the free motions are
+    independent: a QR with column pivoting), which removes the motions and
+    nothing else, and the loads' resultant on the free motions is
+    balanced by inertia relief, the d'Alembert forces of the rigid
+    acceleration it gives the free body, F − M Φ (Φᵀ M Φ)⁻¹ Φᵀ F (MSC
+    Nastran Linear Static Analysis User's Guide, "Inertia Relief"): the
+    held components then carry no force, and a run in equilibrium is the
+    quasi-static one of the free body."""
+    n = m.n_bodies
+    modes = free_rigid_modes(m, ~free)
+    r = modes.shape[1]
+    if r == 0:
+        return np.zeros(0, dtype=np.int64), None, ""
+    whole = free.reshape(n, 6).all(axis=1)
+    if not np.any(whole):
+        raise ValueError("nothing holds the model's rigid motion and no body is free to hold "
+                         "it: add supports")
+    # M Φ, M the bodies' mass and world inertia (stiffness.mass_matrix)
+    R = quat_matrix_np(m.body_quat0[:n])
+    J = np.einsum("nik,nk,njk->nij", R, m.body_inertia, R)
+    P = modes.reshape(n, 6, r)
+    MP = np.empty_like(P)
+    MP[:, :3] = m.body_mass[:, None, None] * P[:, :3]
+    MP[:, 3:] = np.einsum("nij,njr->nir", J, P[:, 3:])
+    MP = MP.reshape(6 * n, r)
+    relief = MP @ np.linalg.solve(modes.T @ MP, modes.T @ F)
+    x = m.body_pos0[:n]
+    c = np.average(x, axis=0, weights=m.body_mass)
+    i = int(np.argmin(np.where(whole, np.linalg.norm(x - c, axis=1), np.inf)))
+    _, _, piv = sla.qr(modes[6 * i:6 * i + 6].T, pivoting=True)
+    held = 6 * i + np.sort(piv[:r])
+    net = np.linalg.norm(relief.reshape(n, 6)[:, :3].sum(axis=0))
+    total = 0.5 * np.abs(F.reshape(n, 6)[:, :3]).sum()
+    note = (f"no support holds {r} rigid motion{'s' * (r > 1)} of the model: Newton holds them "
+            f"at body {i} (the one nearest the centre of mass), which carries no force, and "
+            f"balances the loads' resultant ({net:.3g} N, {net / max(total, 1e-300):.2%} of "
+            f"half the loads' absolute sum) by inertia relief")
+    return held, relief, note
+
+
 def _dof_order(model, free):
     """Nested-dissection order of the free DOFs (a body's six together, the
     bodies ordered by METIS's nested dissection of the graph of bodies
@@ -750,6 +801,11 @@ def run(case, model, recorder, *, max_steps=None, progress=None):
     state.dt = 1.0
     t_wall = _time.perf_counter()
     record_frame(recorder, m, state, 0, 0.0, 0.0)
+
+    def frame(lam, ratio):
+        # the work of the loads Newton balances (inertia relief included)
+        load = None if it_.relief is None else lam * it_.F.reshape(m.n_bodies, 6)
+        record_frame(recorder, m, state, total, lam, ratio, load=load)
     control = getattr(sol, "control", None)
     plan = None
     if control is not None:
@@ -812,7 +868,7 @@ def run(case, model, recorder, *, max_steps=None, progress=None):
             msg = (f"increment {len(iterations) + 1} ({what}) did not converge in "
                    f"{NEWTON_MAX_IT} Newton iterations after {MAX_CUTS} halvings: residual "
                    f"ratio {ratio:.3g} > tolerance {sol.tolerance:g}")
-            record_frame(recorder, m, state, total, lam, ratio)
+            frame(lam, ratio)
             recorder.fail(msg)
             raise RunFailed(msg)
         it_.trial(state, commit=True)
@@ -836,7 +892,7 @@ def run(case, model, recorder, *, max_steps=None, progress=None):
         iterations.append(its)
         d = min(d_max, step * min(max(math.sqrt(DESIRED_IT / max(its, 1)), 1.0), 1.5))
         _set_reactions(it_, state, lam)
-        record_frame(recorder, m, state, total, lam, ratio)
+        frame(lam, ratio)
         load = abs(_load(it_, state, lam))
         peak = max(peak, load)
         if progress:
@@ -856,9 +912,9 @@ def run(case, model, recorder, *, max_steps=None, progress=None):
             raise RunFailed(msg)
         if max_steps is not None and total >= max_steps:
             return dict(iterations=iterations, wall_time=_time.perf_counter() - t_wall,
-                        state=state, converged=False)
+                        state=state, converged=False, warnings=[it_.note] if it_.note else [])
     return dict(iterations=iterations, wall_time=_time.perf_counter() - t_wall, state=state,
-                converged=True)
+                converged=True, warnings=[it_.note] if it_.note else [])
 
 
 #: increments the automatic crack-opening control may take before it gives up
