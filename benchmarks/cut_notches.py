@@ -1,7 +1,8 @@
 """Notches given as `cuts` on Voronoi cells, as a user writes them (issue 30,
-item 1: a cut is a plane of cell faces, mesh/cut_seeds.py).
+item 1: a cut is a plane of cell faces by default, mesh/cut_seeds.py).
 
-    python benchmarks/cut_notches.py [--kw] [--griffith] [--sizes 0.002,0.0016] [--jobs 2]
+    python benchmarks/cut_notches.py [--kw] [--griffith] [--sizes 0.002,0.0016]
+                                     [--kw-seeds 1,2] [--jobs 2]
 
 * Kalthoff & Winkler, the full plate (100 × 200 mm, both notches as cuts
   from the struck edge, 50 mm long at y = ±25 mm, no soft slot), the
@@ -36,33 +37,24 @@ from test_fracture_cases import KW, crack_angle, energy_error  # noqa: E402
 import rbsm_dyn  # noqa: E402
 
 
-def kw_full_plate(size):
-    """cases/kalthoff_winkler.yaml as the full plate at cell size `size`:
-    both notches as cuts, no slot material, the struck row |y| < 25 mm."""
+def kw_full_plate(size, seed=1):
+    """cases/kalthoff_winkler.yaml as the full plate at cell size `size`
+    (mesh seed `seed`): both notches as cuts, no slot material, the struck
+    row |y| < 25 mm."""
     yaml = YAML()
     data = yaml.load(KW.read_text(encoding="utf-8"))
     data["name"] = "kalthoff-winkler-full"
     data["domain"]["box"] = [[0, -0.1, 0], [0.1, 0.1, size]]
     data["mesh"]["size"] = size
+    data["mesh"]["seed"] = seed
     del data["materials"]["slot"]
     del data["groups"]["notch_slot"]
     data["groups"]["struck"]["box"] = [[-1, -0.025, -1], [size, 0.025, 1]]
     data["boundary"] = [b for b in data["boundary"] if "face" not in b]
-    data["cuts"] = [{"point": [0, y, 0], "normal": [0, 1, 0], "planar": True,
+    data["cuts"] = [{"point": [0, y, 0], "normal": [0, 1, 0],
                      "within": [[-1, y - 0.5 * size, -1], [0.05, y + 0.5 * size, 1]]}
                     for y in (0.025, -0.025)]
     data["output"]["fields"] = ["position", "orientation", "spring_state"]
-    out = io.StringIO()
-    yaml.dump(data, out)
-    return out.getvalue()
-
-
-def planar_cuts(text):
-    """The case text with `planar: true` on every cut (docs/case_file.md)."""
-    yaml = YAML()
-    data = yaml.load(text)
-    for cut in data.get("cuts") or ():
-        cut["planar"] = True
     out = io.StringIO()
     yaml.dump(data, out)
     return out.getvalue()
@@ -119,6 +111,7 @@ def main(argv=None):
     ap.add_argument("--kw", action="store_true")
     ap.add_argument("--griffith", action="store_true")
     ap.add_argument("--sizes", default="0.002,0.0016")
+    ap.add_argument("--kw-seeds", default="1", help="mesh seeds of the Kalthoff-Winkler plate")
     ap.add_argument("--jobs", type=int, default=2)
     a = ap.parse_args(argv)
     if not (a.kw or a.griffith):
@@ -126,18 +119,20 @@ def main(argv=None):
     work = tempfile.mkdtemp(prefix="cut_notches_")
     if a.kw:
         sizes = [float(s) for s in a.sizes.split(",")]
-        runs = run_all({f"kw_{s * 1e3:g}mm": kw_full_plate(s) for s in sizes}, work, a.jobs)
-        print("| cells [mm] | angle upper tip [°] (faces) | angle lower tip [°] (faces) | "
+        kw_seeds = [int(s) for s in a.kw_seeds.split(",")]
+        names = {(s, k): f"kw_{s * 1e3:g}mm_s{k}" for s in sizes for k in kw_seeds}
+        runs = run_all({name: kw_full_plate(s, k) for (s, k), name in names.items()}, work,
+                       a.jobs)
+        print("| cells [mm] | seed | angle upper tip [°] (faces) | angle lower tip [°] (faces) | "
               "energy error | wall [s] |")
-        print("|---|---|---|---|---|")
-        for s in sizes:
-            name = f"kw_{s * 1e3:g}mm"
+        print("|---|---|---|---|---|---|")
+        for (s, k), name in names.items():
             if name not in runs:
                 continue
             h, wall = runs[name]
             up, nu = crack_angle(h, (0.05, 0.025), s)
             lo, nl = crack_angle(Mirrored(h), (0.05, 0.025), s)
-            print(f"| {s * 1e3:g} | {up:.1f} ({nu}) | {lo:.1f} ({nl}) | "
+            print(f"| {s * 1e3:g} | {k} | {up:.1f} ({nu}) | {lo:.1f} ({nl}) | "
                   f"{energy_error(h):.2%} | {wall:.0f} |", flush=True)
     if a.griffith:
         from test_fracture import crack_growth, voronoi_lefm_case
@@ -147,7 +142,6 @@ def main(argv=None):
         for a_cells in (4, 8):
             for seed in seeds:
                 text, ts, lefm = voronoi_lefm_case(a_cells, seed, n, W)
-                text = planar_cuts(text)
                 jobs[f"griffith_a{a_cells}_s{seed}"] = text
                 ref[f"griffith_a{a_cells}_s{seed}"] = (a_cells, ts, lefm)
         runs = run_all(jobs, work, a.jobs)

@@ -71,11 +71,17 @@ def test_mirrored_seeds_keep_their_spacing_and_the_box():
     assert abs(len(out) - len(seeds)) <= 0.1 * len(seeds)
 
 
-def test_a_cut_without_planar_keeps_the_seeds():
-    """The default cut breaks the faces of the seed's cells as they are
-    (old case files mesh as before)."""
-    text = CASE.format(size=SIZE, seed=3, normal="[0, 0, 1]").replace(", planar: true", "")
-    case = load_case_text(text)
+def test_a_cut_is_planar_by_default_and_planar_false_keeps_the_seeds():
+    """A cut written without `planar` is a plane of cell faces (issue 30:
+    a notch as users write it); `planar: false` breaks the faces of the
+    seed's cells as they are (the meshes of cases written before)."""
+    text = CASE.format(size=SIZE, seed=3, normal="[0, 0, 1]")
+    implicit = load_case_text(text.replace(", planar: true", ""))
+    assert implicit.cuts[0].planar is True
+    # a case written before the default changed is told which key keeps its mesh
+    assert any("planar: false" in w and "cuts" in w for w in implicit.warnings)
+    assert not any("planar" in w for w in load_case_text(text).warnings)
+    case = load_case_text(text.replace("planar: true", "planar: false"))
     assert case.cuts[0].planar is False
     from rbsm_dyn.mesh import voronoi_seeds
     box = np.array([[0, 0, 0], [0.06, 0.012, 0.04]])

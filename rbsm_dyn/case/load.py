@@ -125,7 +125,24 @@ def load_case_text(text: str | bytes, filename: str = "<string>") -> Case:
     if case.solver.mode == "dynamic" and case.output.interval is None:
         case.output.interval = case.solver.end_time / 100
     case._warnings.extend(_unit_traps(case))
+    case._warnings.extend(_planar_default(case))
     return case
+
+
+def _planar_default(case: Case) -> list[str]:
+    """A note for cuts on Voronoi cells that take the default `planar: true`
+    (a plane of cell faces, since 2026-11-27): a case written before meshed
+    the cells of its seed as they were, which `planar: false` still does."""
+    implicit = [i for i, cut in enumerate(case.cuts) if "planar" not in cut.model_fields_set]
+    if not implicit or not any(p.mesh.kind == "voronoi" for p in scene_parts(case)):
+        return []
+    more = f" (and cuts {', '.join(map(str, implicit[1:]))})" if len(implicit) > 1 else ""
+    return [str(case.error(("cuts", implicit[0]),
+                           f"a cut on Voronoi cells is a plane of cell faces{more}, the default "
+                           "since 2026-11-27 (seeds mirrored across it, docs/case_file.md "
+                           "cuts); a case written before meshed its seed's cells as they were: "
+                           "give `planar: false` for that, `planar: true` to silence this "
+                           "note"))]
 
 
 #: the bar wave speed sqrt(E/ρ) of any real solid lies in this range [m/s]

@@ -82,12 +82,13 @@ class Interface(_Node):
 
 class Cut(_Node):
     """Pre-broken springs: crossing the plane (point, normal) inside
-    ``within``; ``planar``: the Voronoi seeds mirrored across the plane over
-    the patch, so that the notch is a plane of cell faces (mesh/cut_seeds.py)."""
+    ``within``; ``planar`` (default): the Voronoi seeds mirrored across the
+    plane over the patch, so that the notch is a plane of cell faces
+    (mesh/cut_seeds.py); false: the faces of the seed's cells as they are."""
     point: Vec3
     normal: Vec3
     within: Box
-    planar: bool = False
+    planar: bool = True
 
 
 class Ground(_Node):
