@@ -119,12 +119,13 @@ def tension_specimen(*, cell, cells_across=8, notch=0.5, young=30.0e9, density=2
     if notch > 0:
         # two edge notches, notch/2 × W deep each, at mid-height: a symmetric
         # ligament (no bending), cut across a band of one cell either side
-        # of the plane (a Voronoi face crossing it has its points there)
+        # of the plane (a Voronoi face crossing it has its points there);
+        # planar: false, the cells of the seed as the tables were measured on
         z0, z1, d = L / 2 - cell, L / 2 + cell, notch * W / 2
         cut = (f"cuts: [{{point: [0, 0, {L / 2!r}], normal: [0, 0, 1], within: [[-1, -1, "
-               f"{z0!r}], [{d!r}, 1, {z1!r}]]}},\n"
+               f"{z0!r}], [{d!r}, 1, {z1!r}]], planar: false}},\n"
                f"       {{point: [0, 0, {L / 2!r}], normal: [0, 0, 1], within: [[{W - d!r}, "
-               f"-1, {z0!r}], [1, 1, {z1!r}]]}}]")
+               f"-1, {z0!r}], [1, 1, {z1!r}]], planar: false}}]")
     text = f"""\
 name: tension-specimen
 domain: {{box: [[0, 0, 0], [{W!r}, {W!r}, {L!r}]]}}
@@ -168,9 +169,9 @@ def _plane_specimen(cell, cells_across, notch, young, density, poisson, tensile_
     if notch > 0:
         y0, y1, d = L / 2 - cell, L / 2 + cell, notch * W / 2
         cut = (f"cuts: [{{point: [0, {L / 2!r}], normal: [0, 1], within: [[-1, {y0!r}], "
-               f"[{d!r}, {y1!r}]]}},\n"
+               f"[{d!r}, {y1!r}]], planar: false}},\n"
                f"       {{point: [0, {L / 2!r}], normal: [0, 1], within: [[{W - d!r}, "
-               f"{y0!r}], [1, {y1!r}]]}}]")
+               f"{y0!r}], [1, {y1!r}]], planar: false}}]")
     text = f"""\
 name: tension-specimen-plane
 plane: {{kind: stress, thickness: {cell!r}}}
