@@ -14,6 +14,7 @@ from .errors import CaseError, _nearest_line, _show
 from .output import _PROBE_TAG, _RELATIVE_TAG
 from .parse import _parse
 from .parts import scene_parts
+from .presets import expand_presets
 from .plane import lift_plane
 from .top import Case
 from .units import UNIT_FACTORS, _to_si
@@ -99,8 +100,10 @@ def load_case_text(text: str | bytes, filename: str = "<string>") -> Case:
             raise CaseError(filename, line, (),
                             f"not UTF-8 text (byte 0x{text[ex.start]:02x})") from None
     data, lines = _parse(text, filename)
+    notes = []
     if isinstance(data, dict):
         lift_plane(data, lines, filename)     # a plane case's 2D input, as its slab's
+        notes = expand_presets(data, lines, filename)   # materials by engineering values
     try:
         case = Case.model_validate(data)
     except ValidationError as ex:
@@ -112,6 +115,7 @@ def load_case_text(text: str | bytes, filename: str = "<string>") -> Case:
     case._source_file = filename
     case._lines = lines
     case._input_units = case.units
+    case._material_notes = notes
     _check(case)
 
     _to_si(case, UNIT_FACTORS[case.units])

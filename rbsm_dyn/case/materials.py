@@ -51,9 +51,14 @@ class Viscoelastic(_Node):
 
 
 class Material(_Node):
+    """Elastic constants, yield and rupture; ``model: concrete`` with ``fc``
+    (the mean cylinder compressive strength f_cm) fills in those not given
+    from the fib Model Code 2010 (case/presets.py)."""
     density: float = Field(gt=0)
     young: float = Field(gt=0)
     poisson: float = Field(ge=0, lt=0.5)
+    model: Optional[Literal["concrete"]] = None
+    fc: Optional[float] = Field(default=None, gt=0)
     stiffness: Literal["calibrated", "kawai", "homogeneous"] = "calibrated"
     yield_: Optional[Yield] = Field(default=None, alias="yield")
     rupture: Optional[Rupture] = None

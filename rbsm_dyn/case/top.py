@@ -47,6 +47,13 @@ class Case(_Node):
     _lines: dict = PrivateAttr(default_factory=dict)
     _input_units: str = PrivateAttr(default="SI")
     _warnings: list = PrivateAttr(default_factory=list)
+    _material_notes: list = PrivateAttr(default_factory=list)
+
+    @property
+    def material_notes(self) -> list:
+        """What case/presets.py derived for materials given by their
+        engineering values (printed by check and info)."""
+        return self._material_notes
 
     @property
     def warnings(self) -> list:

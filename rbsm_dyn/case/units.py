@@ -29,6 +29,7 @@ DIMENSIONS: dict[tuple[type, str], str] = {
     (Interface, "thickness"): "length",
     (Material, "density"): "density",
     (Material, "young"): "stress",
+    (Material, "fc"): "stress",
     (Yield, "stress"): "stress",
     (Yield, "cohesion"): "stress",
     (Yield, "tension"): "stress",

@@ -30,6 +30,8 @@ def _info(case, model, threads, out=None):
     print(f"case        {case.name} ({case.solver.mode}{plane})")
     print(f"bodies      {e.n_bodies}")
     print(f"springs     {e.n_springs} ({e.n_supports} supports, {model.n_cut} cut)")
+    for k, note in enumerate(case.material_notes):
+        print(f"{'materials' if k == 0 else '':<12}{note}")
     for k, line in enumerate(_selections(case, model)):
         print(f"{'selects' if k == 0 else '':<12}{line}")
     print(f"stable dt   {dt:.4g} s (estimate; used × dt_safety {case.solver.dt_safety})")
