@@ -2,7 +2,8 @@
 python -m rbsm_dyn export|render|plot RUN.h5 [options] (post-processing of a
 history: rbsm_dyn/io/export.py, rbsm_dyn/io/render.py), and
 python -m rbsm_dyn bench [--bodies N --steps K --threads T --physics P] (bench.py),
-python -m rbsm_dyn spectrum RECORD|RUN.h5 [options] (response spectra: io/spectrum.py).
+python -m rbsm_dyn spectrum RECORD|RUN.h5 [options] (response spectra: io/spectrum.py),
+python -m rbsm_dyn sweep CASE.yaml --seeds 1..8 [--set KEY=V1,V2] (an ensemble: sweep.py).
 
 Exit status: 0 success, 2 bad case or option (one message naming file,
 line and key, or the option and its value; also: the output is locked by a
@@ -13,7 +14,7 @@ SIGINT/SIGTERM (dynamic runs after writing a checkpoint;
 before the run, during imports or the build, exits 130 too).
 
 One module a command: run.py, check.py, info.py, export.py, render.py
-(render and plot), bench.py, spectrum.py; args.py the parser, prepare.py what run,
+(render and plot), bench.py, spectrum.py, sweep.py; args.py the parser, prepare.py what run,
 check and info share (the case, its model, the preflight), notice.py the
 compile notice, progress.py the progress of a run, signals.py Ctrl-C.
 The modules import only the standard library when imported (the rest when
@@ -22,7 +23,7 @@ called), so that Ctrl-C during the imports is handled by main.
 import os
 import sys
 
-from . import bench, check, export, info, render, run, signals, spectrum
+from . import bench, check, export, info, render, run, signals, spectrum, sweep
 from .args import option_problem, parser
 
 #: post-processing commands: the module of each (render: render and plot)
@@ -70,6 +71,8 @@ def _main(argv=None):
         return bench.main(argv[1:])
     if argv[:1] == ["spectrum"]:
         return spectrum.main(argv[1:])
+    if argv[:1] == ["sweep"]:
+        return sweep.main(argv[1:])
     if argv and argv[0] in POST_COMMANDS:
         if POST_COMMANDS[argv[0]] == "export":
             return export.main(argv[1:])
