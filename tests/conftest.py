@@ -104,3 +104,97 @@ def pytest_collection_modifyitems(config, items):
     for item, key in shared_of.items():
         root = find(key)
         item.add_marker(pytest.mark.xdist_group(f"{root[0]}:{root[1]}"))
+
+
+# --------------------------------------------------------------- warm-up ---
+#: tiny cases whose runs compile the kernels of every kind of run (cli/
+#: notice.py RUN_KERNELS) into Numba's cache before the workers start; two
+#: chains side by side, the threaded inelastic and contact passes (about
+#: 250 s cold) in one, the rest in the other
+_WARM_BLOCKS = """
+name: warm
+domain: {{box: [[0, 0, 0], [0.04, 0.02, 0.02]]}}
+mesh: {{kind: blocks, divisions: [4, 2, 2]}}
+materials:
+  c: {{density: 2400, young: 3.0e10, poisson: 0.2,
+      rupture: {{fracture_energy: 100.0, tensile_strength: 3.0e6}}}}
+{extra}
+"""
+_WARM_CHAINS = (
+    (_WARM_BLOCKS.format(extra="""\
+cuts: [{point: [0.02, 0, 0], normal: [1, 0, 0], within: [[0.01, -1, -1], [0.03, 1, 0.01]]}]
+contact: {between: all}
+initial: [{group: all, velocity: [1.0, 0, 0]}]
+boundary: [{face: xmin, fix: all}]
+solver: {mode: dynamic, end_time: 1.0e-5}
+output: {interval: 1.0e-6}"""),),
+    (_WARM_BLOCKS.format(extra="""\
+boundary: [{face: xmin, fix: all}, {surface: xmax, displacement: [1.0e-5, 0, 0]}]
+solver: {mode: static, method: newton, load_steps: 2}"""),
+     _WARM_BLOCKS.format(extra="""\
+boundary: [{face: xmin, fix: all}, {surface: xmax, displacement: [1.0e-6, 0, 0]}]
+solver: {mode: static, method: relaxation, load_steps: 1}"""),
+     _WARM_BLOCKS.format(extra="""\
+boundary: [{face: xmin, fix: all}]
+loads: [{surface: xmax, pressure: 1.0e5}]
+solver: {mode: linear}"""),
+     """
+name: warm_plane
+plane: {kind: stress, thickness: 0.001}
+domain: {box: [[0, 0], [0.04, 0.02]]}
+mesh: {kind: blocks, divisions: [4, 2]}
+materials:
+  c: {density: 2400, young: 3.0e10, poisson: 0.2,
+      rupture: {fracture_energy: 100.0, tensile_strength: 3.0e6}}
+boundary: [{face: xmin, fix: all}]
+initial: [{group: all, velocity: [1.0, 0]}]
+solver: {mode: dynamic, end_time: 1.0e-5}
+output: {interval: 1.0e-6}"""),
+)
+
+
+def pytest_sessionstart(session):
+    """With several xdist workers and a cold kernel cache, compile the
+    kernels once, before the workers start (xdist starts them in its own
+    trylast sessionstart): otherwise each worker, and each case a test
+    runs as a subprocess, compiles the threaded inelastic pass (about 200 s
+    of a core each) at the same time at the start of the suite.  Skipped
+    with -n 0, in a worker, or when the cache is warm."""
+    import subprocess
+    import sys
+    import tempfile
+    config = session.config
+    if hasattr(config, "workerinput") or config.option.collectonly \
+            or not (getattr(config.option, "numprocesses", 0) or 0):
+        return
+    from rbsm_dyn.cli.notice import RUN_KERNELS, cold_kernels
+    if not cold_kernels(list(RUN_KERNELS)):
+        return
+    folder = tempfile.mkdtemp(prefix="rbsm_warm_")
+    procs = []
+    for c, chain in enumerate(_WARM_CHAINS):
+        script = []
+        for k, text in enumerate(chain):
+            path = os.path.join(folder, f"warm{c}_{k}.yaml")
+            with open(path, "w", encoding="utf-8") as f:
+                f.write(textwrap.dedent(text))
+            script.append([sys.executable, "-m", "rbsm_dyn", path, "--out",
+                           os.path.join(folder, f"warm{c}_{k}.h5"), "--quiet"])
+        procs.append(script)
+    import threading
+    failures = []
+
+    def chain_run(script):
+        for cmd in script:
+            r = subprocess.run(cmd, capture_output=True, text=True, cwd=folder)
+            if r.returncode != 0:
+                failures.append(f"{cmd[3]}: exit {r.returncode}: {r.stderr[-500:]}")
+    threads = [threading.Thread(target=chain_run, args=(s,)) for s in procs]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    # a warm-up case that fails is the tests' business (they say what):
+    # only its compile was wanted
+    if failures:
+        print("\nrbsm_dyn tests: kernel warm-up: " + "; ".join(failures), file=sys.stderr)
