@@ -10,7 +10,8 @@ Writes DIR/<run>.yaml, DIR/<run>.h5 and DIR/sweep.csv (DIR: --out, default
 <case name>_sweep beside the working directory); prints the table as
 Markdown.  Exit 0 when every run ends, 1 when some run fails (the table
 marks it), 2 for a bad option or case, 130 on Ctrl-C (the runs are
-stopped; their histories stay readable)."""
+stopped; their histories stay readable).  A failed run's probes are read
+from its history as far as it got (its row says exit 1)."""
 import argparse
 import csv
 import io
@@ -232,8 +233,11 @@ def _report(runs, results, probes, out):
     for name, labels, _ in runs:
         code, wall = results[name]
         row = {"run": name, **labels, "exit": code, "wall_s": round(wall, 2)}
-        if code == 0:
+        try:        # (a failed run's history holds its path up to the failure)
             h = rbsm_dyn.open_history(out / f"{name}.h5")
+        except (OSError, KeyError, ValueError):
+            h = None
+        if h is not None:
             for pr in probes:
                 v = np.asarray(h.observables[pr], float)
                 row[f"{pr}_peak"] = float(v[np.argmax(np.abs(v))]) if v.size else None
