@@ -130,13 +130,18 @@ def mass_matrix(model):
     translations [kg] and the world inertia R diag(I) Rᵀ [kg m²] about the
     centroid for the rotations (R from body_quat0)."""
     n = model.n_bodies
-    R = quat_matrix_np(model.body_quat0[:n])
-    # world inertia of a rigid body from its principal moments: R diag(I) Rᵀ
-    J = np.einsum("nik,nk,njk->nij", R, model.body_inertia, R)
+    J = world_inertia(model)
     blocks = np.zeros((n, 6, 6))
     blocks[:, [0, 1, 2], [0, 1, 2]] = model.body_mass[:, None]
     blocks[:, 3:, 3:] = J
     return sp.block_diag(list(blocks), format="csr") if n else sp.csr_matrix((0, 0))
+
+
+def world_inertia(model):
+    """(N, 3, 3) [kg m²] each body's inertia about its centroid in world
+    axes, R diag(I) Rᵀ from its principal moments (R from body_quat0)."""
+    R = quat_matrix_np(model.body_quat0[:model.n_bodies])
+    return np.einsum("nik,nk,njk->nij", R, model.body_inertia, R)
 
 
 def model_load(model):

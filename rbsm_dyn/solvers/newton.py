@@ -73,7 +73,7 @@ from ..physics.laws.rupture import MIXED, SOFTENING, mixed_mode_damage, softenin
 from ..physics.passes import spring_forces
 from ..physics.rotation import quat_matrix_np, quat_mul_np
 from ..physics.springs import spring_local_gap
-from ..stiffness import free_rigid_modes, model_load
+from ..stiffness import free_rigid_modes, model_load, world_inertia
 from .explicit import RunFailed
 from .assembly import assemble_triplets, changed_springs
 from .passes import Options, aux_stress, body_state, history, model_arrays, parallel_arg
@@ -664,13 +664,8 @@ def _hold_rigid_motion(m, free, F):
     r = modes.shape[1]
     if r == 0:
         return np.zeros(0, dtype=np.int64), None, ""
-    whole = free.reshape(n, 6).all(axis=1)
-    if not np.any(whole):
-        raise ValueError("nothing holds the model's rigid motion and no body is free to hold "
-                         "it: add supports")
     # M Φ, M the bodies' mass and world inertia (stiffness.mass_matrix)
-    R = quat_matrix_np(m.body_quat0[:n])
-    J = np.einsum("nik,nk,njk->nij", R, m.body_inertia, R)
+    J = world_inertia(m)
     P = modes.reshape(n, 6, r)
     MP = np.empty_like(P)
     MP[:, :3] = m.body_mass[:, None, None] * P[:, :3]
@@ -679,9 +674,17 @@ def _hold_rigid_motion(m, free, F):
     relief = MP @ np.linalg.solve(modes.T @ MP, modes.T @ F)
     x = m.body_pos0[:n]
     c = np.average(x, axis=0, weights=m.body_mass)
-    i = int(np.argmin(np.where(whole, np.linalg.norm(x - c, axis=1), np.inf)))
-    _, _, piv = sla.qr(modes[6 * i:6 * i + 6].T, pivoting=True)
-    held = 6 * i + np.sort(piv[:r])
+    # the body: one whose free components carry every free motion (all six
+    # in 3D, u, v, θ in a plane model), the nearest the centre of mass
+    fb = free.reshape(n, 6)
+    able = fb.sum(axis=1) >= r
+    if not np.any(able):
+        raise ValueError("nothing holds the model's rigid motion and no body is free to hold "
+                         "it: add supports")
+    i = int(np.argmin(np.where(able, np.linalg.norm(x - c, axis=1), np.inf)))
+    rows = np.flatnonzero(fb[i])
+    _, _, piv = sla.qr(modes[6 * i + rows].T, pivoting=True)
+    held = 6 * i + np.sort(rows[piv[:r]])
     net = np.linalg.norm(relief.reshape(n, 6)[:, :3].sum(axis=0))
     total = 0.5 * np.abs(F.reshape(n, 6)[:, :3]).sum()
     note = (f"no support holds {r} rigid motion{'s' * (r > 1)} of the model: Newton holds them "
