@@ -10,7 +10,13 @@ after round, each tree in its own process loads it, takes the same dt,
 compiles (not timed), and times `advance(model, state, K)` at each thread
 count: best of the rounds, wall and CPU ns per spring-point-step.  The
 order of the trees alternates between rounds, so a shared machine's slow
-spells hit both alike.  Measures; asserts nothing."""
+spells hit both alike.  Measures; asserts nothing.
+
+`--side-by-side`: one thread each, the two trees at the same time on
+cores 0 and 1 (taskset), swapped every round; the median and range of
+the rounds' ratios after/before.  On this VM the one-thread figure of
+one tree moved by +-15 % between rounds minutes apart; side by side,
+both share a slow spell."""
 import argparse
 import json
 import os
@@ -66,13 +72,37 @@ print(json.dumps(out))
 '''
 
 
-def child(tree, *args):
+def child(tree, *args, core=None, wait=True):
     env = dict(os.environ, PYTHONPATH=str(tree))
-    r = subprocess.run([sys.executable, "-c", CHILD, *map(str, args)], env=env,
-                       capture_output=True, text=True)
-    if r.returncode:
-        raise RuntimeError(r.stderr[-2000:])
-    return json.loads(r.stdout.strip().splitlines()[-1])
+    pin = [] if core is None else ["taskset", "-c", str(core)]
+    p = subprocess.Popen([*pin, sys.executable, "-c", CHILD, *map(str, args)], env=env,
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    return finish(p) if wait else p
+
+
+def finish(p):
+    out, err = p.communicate()
+    if p.returncode:
+        raise RuntimeError(err[-2000:])
+    return json.loads(out.strip().splitlines()[-1])
+
+
+def side_by_side(trees, path, rounds, seconds):
+    """Median and range of after/before (wall ns per spring-step, one
+    thread each, run at the same time on cores 0 and 1)."""
+    for name in trees:                     # compile into each tree's cache first
+        child(trees[name], "time", path, "1", 0.1)
+    ratios = []
+    for r in range(rounds):
+        cores = {"before": r % 2, "after": 1 - r % 2}
+        procs = {n: child(trees[n], "time", path, "1", seconds, core=cores[n], wait=False)
+                 for n in trees}
+        res = {n: finish(p)["1"]["wall_ns"] for n, p in procs.items()}
+        ratios.append(res["after"] / res["before"])
+        print(f"  round {r}: before {res['before']:.1f} after {res['after']:.1f} "
+              f"({ratios[-1] - 1:+.1%})", flush=True)
+    ratios.sort()
+    return ratios[len(ratios) // 2], ratios[0], ratios[-1]
 
 
 def main(argv=None):
@@ -85,6 +115,8 @@ def main(argv=None):
     p.add_argument("--rounds", type=int, default=3)
     p.add_argument("--seconds", type=float, default=3.0, help="timed loop per thread count")
     p.add_argument("--work", default="/tmp/ab_kernels")
+    p.add_argument("--side-by-side", action="store_true",
+                   help="one thread each, both trees at once on cores 0 and 1")
     a = p.parse_args(argv)
     Path(a.work).mkdir(parents=True, exist_ok=True)
     trees = {"before": Path(a.before).resolve(), "after": Path(a.after).resolve()}
@@ -97,6 +129,12 @@ def main(argv=None):
                 info = child(trees["before"], "build", path, a.threads, a.seconds, bodies, physics)
             else:
                 info = {}
+            if a.side_by_side:
+                med, lo, hi = side_by_side(trees, path, a.rounds, a.seconds)
+                print(f"bodies={bodies} {info} physics={physics} threads=1 side by side: "
+                      f"after/before median {med - 1:+.1%} (rounds {lo - 1:+.1%} to "
+                      f"{hi - 1:+.1%})", flush=True)
+                continue
             best = {}
             for r in range(a.rounds):
                 order = ("before", "after") if r % 2 == 0 else ("after", "before")

@@ -3,9 +3,11 @@ functions take a few containers, and parallel loops never touch one.
 
 Read from the source (ast), so the rules hold for every kernel, including
 those no test runs: no compiled function takes more than 12 parameters
-(inlined leaf helpers: 30); inside a prange loop no container is used at
-all (Numba loses writes to a NamedTuple's field inside a prange and hid a
-container's writes from its loop fuser: numba issues 5872, 7135, 10338);
+(inlined leaf helpers: 30); inside a prange loop no container's field is
+read (Numba loses writes to a NamedTuple's field inside a prange: numba
+issues 5872, 7135, 10338), and a container goes only whole into a
+compiled call, in a function with no other loop (it hid a container's
+writes from the loop fuser);
 a container unpacked into locals names its fields in their order."""
 import ast
 from pathlib import Path
@@ -85,15 +87,27 @@ def test_no_compiled_function_takes_more_than_12_parameters():
 
 
 def test_no_container_inside_a_prange_loop():
-    """Inside a prange body: no container name, no attribute of anything
-    but a module or an array's shape."""
+    """Inside a prange body: no attribute of anything but a module or an
+    array's shape, and a container only as a whole argument of a compiled
+    call (numba issue 7135: a call inside the loop keeps the writes made
+    through a NamedTuple), in a function with no other loop (a container
+    passed to a call hid its writes from the loop fuser, which fused two
+    loops into a race)."""
     bad = []
     allowed_attr = {"shape", "size", "ndim"}
     for path, fn, _ in KERNELS:
-        for loop in (n for n in ast.walk(fn) if isinstance(n, ast.For) and _is_prange(n)):
+        loops = [n for n in ast.walk(fn) if isinstance(n, (ast.For, ast.While))]
+        for loop in (n for n in loops if isinstance(n, ast.For) and _is_prange(n)):
+            call_args = {id(a) for stmt in loop.body for n in ast.walk(stmt)
+                         if isinstance(n, ast.Call) and isinstance(n.func, ast.Name)
+                         for a in n.args}
             for node in (n for stmt in loop.body for n in ast.walk(stmt)):
                 if isinstance(node, ast.Name) and node.id in CONTAINERS:
-                    bad.append(f"{path}:{node.lineno} {fn.name}: container {node.id!r}")
+                    if id(node) not in call_args:
+                        bad.append(f"{path}:{node.lineno} {fn.name}: container {node.id!r}")
+                    elif len(loops) > 1:
+                        bad.append(f"{path}:{node.lineno} {fn.name}: container {node.id!r} "
+                                   "passed to a call in a function with another loop")
                 elif (isinstance(node, ast.Attribute) and node.attr not in allowed_attr
                       and not (isinstance(node.value, ast.Name)
                                and node.value.id in ("np", "nb", "math", "numba"))):

@@ -87,10 +87,11 @@ cached across processes: measured, numba 0.68).
 
 Rules that keep the containers as fast and as correct as separate arrays
 (measured, numba 0.68, issue 26): a parallel kernel copies the fields it
-uses into locals before its first prange; prange bodies, and the helpers
-they call, use arrays only (a field written inside a prange can lose its
-writes; a container passed to a call inside a prange hid the writes from
-the loop fuser); no tuple of NamedTuples (crashes, or compiles for minutes);
+uses into locals before its first prange; inside a prange body no field
+is read (a field written inside a prange can lose its writes), and a
+container goes only whole into a compiled call (numba issue 7135: the
+callee's writes are kept), in a function with no other loop (a container
+passed to a call inside a prange hid the writes from the loop fuser); no tuple of NamedTuples (crashes, or compiles for minutes);
 classes at module level only (tests/test_kernel_interface.py checks); no
 work after a prange loop in the same function (the ground's drift written
 there was lost: integrate.move_ground is a call after the loop's

@@ -27,7 +27,9 @@ load gives a free body over the step: F_n · v_{n+1/2} dt would book
 """
 
 import numba as nb
+import numpy as np
 
+from .jit import NOALIAS
 from .rotation import dlm_free_rotor, quat_mul, quat_to_matrix
 from .arrays import flag
 from .collide import contact_step
@@ -316,8 +318,13 @@ def _rotate(i, dt, keep, dt_c, damping_alpha, damping_local, follow, local, amp,
     body_damp[i] += damp
 
 
-@nb.njit(parallel=True, **JIT)
-def _dynamic_bodies_parallel(t, stepping, bodies, loads, bs):
+@nb.njit(**JIT, **NOALIAS)
+def _dynamic_bodies_range(i0, i1, t, stepping, bodies, loads, bs, gw0, gw1, gw2):
+    """Bodies i0..i1 in order: the one compiled loop of the pass, on one
+    thread (small models) or per part (physics/jit.py).  gw0..2: the
+    ground's weights of the work of the forces that tie bodies to it
+    (support springs, contact), when it moves (it moves after the pass:
+    dynamic_body_pass, move_ground)."""
     # the fields into locals before the loop (physics/arrays.py)
     dt, damping_alpha, damping_local, t0 = stepping
     body_mass, body_inertia, body_pos0, body_quat0 = bodies
@@ -325,51 +332,6 @@ def _dynamic_bodies_parallel(t, stepping, bodies, loads, bs):
      dof_hist, hist_ptr, hist_t, hist_a, ground_hist, ground_dir) = loads
     (body_pos, body_quat, body_vel, body_angmom, body_rot, body_dq, body_wrench, body_support,
      body_work, body_damp, body_reaction, spring_force) = bs
-    n = body_mass.shape[0]
-    c = 0.5 * damping_alpha * dt
-    # (1 − c)/(1 + c) and dt/(1 + c): divisions out of the loop
-    keep = (1.0 - c) / (1.0 + c)
-    dt_c = dt / (1.0 + c)
-    follow = body_ffol.shape[0] > 0
-    local = damping_local > 0.0
-    # a moving ground: the weights of the work of the forces that tie
-    # bodies to it (support springs, contact); it moves after the loop
-    # (dynamic_body_pass, move_ground)
-    moving = ground_hist[0] >= 0
-    gw0 = ground_weight(t, dt, ground_hist, ground_dir, hist_ptr, hist_t, hist_a, body_vel, n, 0)
-    gw1 = ground_weight(t, dt, ground_hist, ground_dir, hist_ptr, hist_t, hist_a, body_vel, n, 1)
-    gw2 = ground_weight(t, dt, ground_hist, ground_dir, hist_ptr, hist_t, hist_a, body_vel, n, 2)
-    # by the parts of partition.py (bodies i·PARTS // n = p): the same chunks
-    # as the spring pass's phase 0, so that a thread can keep its bodies
-    for p in nb.prange(PARTS):
-        i0, i1 = part_range(p, PARTS, n)
-        for i in range(i0, i1):
-            amp = amplitude(body_load_hist[i], t, hist_ptr, hist_t, hist_a)
-            R = body_rot[i]                      # at t, as the spring forces
-            work, damp = _translate(i, t, dt, keep, dt_c, damping_alpha, damping_local, follow,
-                                    local, amp, R, body_wrench, body_support, body_mass,
-                                    body_pos, body_pos0, body_vel, body_fext, body_ffol,
-                                    gravity, dof_kind, dof_value, dof_hist, hist_ptr, hist_t,
-                                    hist_a, body_reaction)
-            if moving:
-                # the ground's work through the body's supports: f · v̄_g dt
-                work += body_support[i, 0] * gw0 + body_support[i, 1] * gw1 \
-                    + body_support[i, 2] * gw2
-            _rotate(i, dt, keep, dt_c, damping_alpha, damping_local, follow, local, amp, R,
-                    work, damp, body_wrench, body_inertia, body_angmom, body_mext, body_mfol,
-                    dof_kind, body_quat, body_quat0, body_rot, body_dq, body_work, body_damp)
-
-
-@nb.njit(**JIT)
-def _dynamic_bodies_serial(t, stepping, bodies, loads, bs):
-    # the fields into locals before the loop (physics/arrays.py)
-    dt, damping_alpha, damping_local, t0 = stepping
-    body_mass, body_inertia, body_pos0, body_quat0 = bodies
-    (body_fext, body_mext, body_ffol, body_mfol, body_load_hist, gravity, dof_kind, dof_value,
-     dof_hist, hist_ptr, hist_t, hist_a, ground_hist, ground_dir) = loads
-    (body_pos, body_quat, body_vel, body_angmom, body_rot, body_dq, body_wrench, body_support,
-     body_work, body_damp, body_reaction, spring_force) = bs
-    n = body_mass.shape[0]
     c = 0.5 * damping_alpha * dt
     # (1 − c)/(1 + c) and dt/(1 + c): divisions out of the loop
     keep = (1.0 - c) / (1.0 + c)
@@ -377,10 +339,7 @@ def _dynamic_bodies_serial(t, stepping, bodies, loads, bs):
     follow = body_ffol.shape[0] > 0
     local = damping_local > 0.0
     moving = ground_hist[0] >= 0
-    gw0 = ground_weight(t, dt, ground_hist, ground_dir, hist_ptr, hist_t, hist_a, body_vel, n, 0)
-    gw1 = ground_weight(t, dt, ground_hist, ground_dir, hist_ptr, hist_t, hist_a, body_vel, n, 1)
-    gw2 = ground_weight(t, dt, ground_hist, ground_dir, hist_ptr, hist_t, hist_a, body_vel, n, 2)
-    for i in range(n):
+    for i in range(i0, i1):
         amp = amplitude(body_load_hist[i], t, hist_ptr, hist_t, hist_a)
         R = body_rot[i]                      # at t, as the spring forces
         work, damp = _translate(i, t, dt, keep, dt_c, damping_alpha, damping_local, follow,
@@ -389,11 +348,43 @@ def _dynamic_bodies_serial(t, stepping, bodies, loads, bs):
                                 gravity, dof_kind, dof_value, dof_hist, hist_ptr, hist_t,
                                 hist_a, body_reaction)
         if moving:
+            # the ground's work through the body's supports: f · v̄_g dt
             work += body_support[i, 0] * gw0 + body_support[i, 1] * gw1 \
                 + body_support[i, 2] * gw2
         _rotate(i, dt, keep, dt_c, damping_alpha, damping_local, follow, local, amp, R,
                 work, damp, body_wrench, body_inertia, body_angmom, body_mext, body_mfol,
                 dof_kind, body_quat, body_quat0, body_rot, body_dq, body_work, body_damp)
+
+
+@nb.njit(**JIT)
+def _ground_weights(t, dt, loads, bs, n):
+    """The moving ground's weights of _dynamic_bodies_range (zeros when it
+    does not move)."""
+    gh, gd, hp, ht, ha, vel = (loads.ground_hist, loads.ground_dir, loads.hist_ptr,
+                               loads.hist_t, loads.hist_a, bs.body_vel)
+    return (ground_weight(t, dt, gh, gd, hp, ht, ha, vel, n, 0),
+            ground_weight(t, dt, gh, gd, hp, ht, ha, vel, n, 1),
+            ground_weight(t, dt, gh, gd, hp, ht, ha, vel, n, 2))
+
+
+@nb.njit(parallel=True, **JIT)
+def _dynamic_bodies_parallel(t, stepping, bodies, loads, bs):
+    n = bodies.body_mass.shape[0]
+    gw0, gw1, gw2 = _ground_weights(t, stepping.dt, loads, bs, n)
+    # by the parts of partition.py (bodies i·PARTS // n = p): the same chunks
+    # as the spring pass's phase 0, so that a thread can keep its bodies
+    for p in nb.prange(PARTS):
+        i0, i1 = part_range(p, PARTS, n)
+        _dynamic_bodies_range(np.int64(i0), np.int64(i1), t, stepping, bodies, loads, bs,
+                              gw0, gw1, gw2)
+
+
+@nb.njit(**JIT)
+def _dynamic_bodies_serial(t, stepping, bodies, loads, bs):
+    n = bodies.body_mass.shape[0]
+    gw0, gw1, gw2 = _ground_weights(t, stepping.dt, loads, bs, n)
+    _dynamic_bodies_range(np.int64(0), np.int64(n), t, stepping, bodies, loads, bs,
+                          gw0, gw1, gw2)
 
 
 @nb.njit(**JIT)

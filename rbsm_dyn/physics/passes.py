@@ -8,6 +8,8 @@ typing (physics/arrays.py): an elastic scene without the Poisson
 correction compiles the elastic spring pass and nothing else here.
 """
 import numba as nb
+from numba.core import types
+from numba.extending import overload
 
 from .inelastic import finish_cell_stress, inelastic_spring_pass
 from .poisson import poisson_pass
@@ -28,11 +30,29 @@ def spring_forces(springs, bs, hist, aux, store, substep, parallel):
     aux         arrays.PoissonSlots or None (no Poisson correction)
     substep     an explicit step's forces (physics/inelastic.py)
     parallel    None: one thread (small models)"""
-    if hist is None:
-        elastic_spring_pass(springs, bs, store, parallel)
-    else:
+    spring_pass(springs, bs, hist, store, substep, parallel)
+    if aux is not None:
+        poisson_pass(aux, bs, hist, parallel)
+
+
+def spring_pass(springs, bs, hist, store, substep, parallel):
+    """The spring pass of `hist`'s type: elastic (None) or inelastic
+    (compiled callers only, spring_forces)."""
+    raise NotImplementedError("a compiled function only")
+
+
+@overload(spring_pass, jit_options=dict(nogil=True, error_model="numpy"))
+def _spring_pass_of(springs, bs, hist, store, substep, parallel):
+    # chosen by type when the caller is typed: an `if hist is None` branch
+    # is pruned before typing only when hist is None, so an inelastic run
+    # compiled the elastic pass as well (16 s of a cold start, unused)
+    if isinstance(hist, types.NoneType):
+        def elastic(springs, bs, hist, store, substep, parallel):
+            elastic_spring_pass(springs, bs, store, parallel)
+        return elastic
+
+    def inelastic(springs, bs, hist, store, substep, parallel):
         inelastic_spring_pass(springs, bs, hist, store, substep, parallel)
         if hist.cell_moment.shape[0] > 0:
             finish_cell_stress(springs, bs, hist)
-    if aux is not None:
-        poisson_pass(aux, bs, hist, parallel)
+    return inelastic

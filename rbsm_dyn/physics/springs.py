@@ -22,6 +22,7 @@ frame, stiffness per area (k = face_k × area [N/m]), length, law.
 import numba as nb
 import numpy as np
 
+from .jit import NOALIAS
 from .rotation import quat_mul
 
 JIT = dict(cache=True, nogil=True, fastmath={"contract"}, error_model="numpy")
@@ -274,10 +275,12 @@ def _elastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
     flush_a(cur, w0, w1, w2, w3, w4, w5, body_wrench)
 
 
-@nb.njit(parallel=True, **JIT)
-def _elastic_phase(lo, hi, parts, springs, bs, store):
-    """Groups lo..hi of one phase in parallel (they share no body)."""
-    # the fields into locals before the prange (physics/arrays.py)
+@nb.njit(**JIT, **NOALIAS)
+def _elastic_range(lo, hi, parts, springs, bs, store):
+    """Groups lo..hi in order, the group inlined: the one compiled loop of
+    the pass, on one thread (small models) or for each group of a phase
+    (physics/jit.py)."""
+    # the fields into locals before the loop (physics/arrays.py)
     group_ptr = springs.group_ptr
     spring_bodies = springs.spring_bodies
     spring_arm_a = springs.spring_arm_a
@@ -292,39 +295,28 @@ def _elastic_phase(lo, hi, parts, springs, bs, store):
     body_wrench = bs.body_wrench
     body_support = bs.body_support
     spring_force = bs.spring_force
-    for g in nb.prange(lo, hi):
+    for g in range(lo, hi):
         if g < parts:
             clear_part(g, parts, body_wrench, body_support)
         _elastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spring_slot,
                        face_frame0, face_k, spring_area, body_pos, body_rot, body_dq,
                        body_wrench, body_support, store, spring_force)
+
+
+@nb.njit(parallel=True, **JIT)
+def _elastic_phase(lo, hi, parts, springs, bs, store):
+    """Groups lo..hi of one phase in parallel (they share no body), a range
+    call per group (the containers whole into a compiled call)."""
+    for g in nb.prange(lo, hi):
+        _elastic_range(np.int64(g), np.int64(g) + 1, parts, springs, bs, store)
 
 
 @nb.njit(**JIT)
 def _elastic_serial(springs, bs, store):
     """Every group in order, one thread (small models: SERIAL_SPRINGS)."""
-    group_ptr = springs.group_ptr
-    spring_bodies = springs.spring_bodies
-    spring_arm_a = springs.spring_arm_a
-    spring_arm_b = springs.spring_arm_b
-    spring_slot = springs.spring_slot
-    face_frame0 = springs.face_frame0
-    face_k = springs.face_k
-    spring_area = springs.spring_area
-    body_pos = bs.body_pos
-    body_rot = bs.body_rot
-    body_dq = bs.body_dq
-    body_wrench = bs.body_wrench
-    body_support = bs.body_support
-    spring_force = bs.spring_force
     phase_ptr = springs.phase_ptr
-    parts = phase_ptr[1]
-    for g in range(0, phase_ptr[phase_ptr.shape[0] - 1]):
-        if g < parts:
-            clear_part(g, parts, body_wrench, body_support)
-        _elastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spring_slot,
-                       face_frame0, face_k, spring_area, body_pos, body_rot, body_dq,
-                       body_wrench, body_support, store, spring_force)
+    _elastic_range(np.int64(0), np.int64(phase_ptr[phase_ptr.shape[0] - 1]), phase_ptr[1],
+                   springs, bs, store)
 
 
 @nb.njit(**JIT)
