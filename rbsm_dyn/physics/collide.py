@@ -47,6 +47,7 @@ import numba as nb
 import numpy as np
 
 from .arrays import flag
+from .jit import NOALIAS
 from .contact_geometry import overlap, overlap_halfspace
 
 JIT = dict(cache=True, nogil=True, fastmath=False, error_model="numpy")
@@ -503,14 +504,12 @@ def _pair_force(p, pairs, slip, sep, out, dt, body_pos, body_rot, body_vel, body
     out[p, O_D + 2] = fd * n2
 
 
-@nb.njit(parallel=True, **JIT)
-def contact_forces(contact, bodies, bs, dt):
-    """Force of every candidate pair (see module) into ``out`` (P, N_OUT),
-    slip memory updated in ``slip`` (contact: arrays.ContactArrays).  Pairs
-    split into len(scratch) equal blocks, one per block of scratch: each
-    pair's result depends on it alone, so any thread count gives the same
-    numbers."""
-    # the fields into locals before the prange (physics/arrays.py)
+@nb.njit(**JIT, **NOALIAS)
+def _pairs_range(t, contact, bodies, bs, dt):
+    """Block t of the pairs (one of len(scratch) equal blocks, with its row
+    of scratch), in order, the pair inlined: the one compiled loop of
+    contact_forces (physics/jit.py)."""
+    # the fields into locals before the loop (physics/arrays.py)
     pairs = contact.pairs
     slip = contact.slip
     sep = contact.sep
@@ -540,14 +539,25 @@ def contact_forces(contact, bodies, bs, dt):
     body_mass = bodies.body_mass
     n_pairs = pairs.shape[0]
     nblk = scratch.shape[0]
+    p0 = t * n_pairs // nblk
+    p1 = (t + 1) * n_pairs // nblk
+    for p in range(p0, p1):
+        _pair_force(p, pairs, slip, sep, out, dt, body_pos, body_rot, body_vel,
+                    body_angmom, body_inertia, body_mass, cell_face_ptr, loop_ptr,
+                    loop_xyz, face_plane, cell_loop_ptr, vert_ptr, vert_xyz, radius,
+                    body_size, body_e, body_g, body_rigid, ground, mu, kfac, zeta, scratch[t])
+
+
+@nb.njit(parallel=True, **JIT)
+def contact_forces(contact, bodies, bs, dt):
+    """Force of every candidate pair (see module) into ``out`` (P, N_OUT),
+    slip memory updated in ``slip`` (contact: arrays.ContactArrays).  Pairs
+    split into len(scratch) equal blocks, one per block of scratch: each
+    pair's result depends on it alone, so any thread count gives the same
+    numbers."""
+    nblk = contact.scratch.shape[0]
     for t in nb.prange(nblk):
-        p0 = t * n_pairs // nblk
-        p1 = (t + 1) * n_pairs // nblk
-        for p in range(p0, p1):
-            _pair_force(p, pairs, slip, sep, out, dt, body_pos, body_rot, body_vel,
-                        body_angmom, body_inertia, body_mass, cell_face_ptr, loop_ptr,
-                        loop_xyz, face_plane, cell_loop_ptr, vert_ptr, vert_xyz, radius,
-                        body_size, body_e, body_g, body_rigid, ground, mu, kfac, zeta, scratch[t])
+        _pairs_range(np.int64(t), contact, bodies, bs, dt)
 
 
 @nb.njit(parallel=True, **JIT)

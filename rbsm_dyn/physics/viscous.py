@@ -39,6 +39,7 @@ for materials without yield or rupture (case/check.py says why).
 import numba as nb
 import numpy as np
 
+from .jit import NOALIAS
 from .laws import BROKEN
 from .springs import add_wrench, flush_a, material_points, mid_increment, scaled_frame
 
@@ -147,10 +148,12 @@ def _viscous_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spri
     flush_a(cur, w0, w1, w2, w3, w4, w5, body_wrench)
 
 
-@nb.njit(parallel=True, **JIT)
-def _viscous_phase(lo, hi, springs, bs, visc, store):
-    """Groups lo..hi of one phase in parallel (they share no body)."""
-    # the fields into locals before the prange (physics/arrays.py)
+@nb.njit(**JIT, **NOALIAS)
+def _viscous_range(lo, hi, springs, bs, visc, store):
+    """Groups lo..hi in order, the group inlined: the one compiled loop of
+    the pass, on one thread (small models) or for each group of a phase
+    (physics/jit.py)."""
+    # the fields into locals before the loop (physics/arrays.py)
     group_ptr = springs.group_ptr
     spring_bodies = springs.spring_bodies
     spring_arm_a = springs.spring_arm_a
@@ -168,41 +171,27 @@ def _viscous_phase(lo, hi, springs, bs, visc, store):
     spring_force = bs.spring_force
     (law_dashpot, law_g, law_a, law_b, kelvin_a, kelvin_b, spring_state, spring_gap, spring_q,
      spring_fv, spring_wv, inv_dt) = visc
-    for g in nb.prange(lo, hi):
+    for g in range(lo, hi):
         _viscous_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spring_slot,
                        face_frame0, face_k, face_law, spring_area, body_pos, body_rot,
                        body_dq, body_wrench, body_support, store, spring_force, spring_state,
                        law_dashpot, law_g, law_a, law_b, kelvin_a, kelvin_b, inv_dt,
                        spring_gap, spring_q, spring_fv, spring_wv)
+
+
+@nb.njit(parallel=True, **JIT)
+def _viscous_phase(lo, hi, springs, bs, visc, store):
+    """Groups lo..hi of one phase in parallel (they share no body)."""
+    for g in nb.prange(lo, hi):
+        _viscous_range(np.int64(g), np.int64(g) + 1, springs, bs, visc, store)
 
 
 @nb.njit(**JIT)
 def _viscous_serial(springs, bs, visc, store):
     """Every group in order, one thread (small models)."""
-    group_ptr = springs.group_ptr
-    spring_bodies = springs.spring_bodies
-    spring_arm_a = springs.spring_arm_a
-    spring_arm_b = springs.spring_arm_b
-    spring_slot = springs.spring_slot
-    face_frame0 = springs.face_frame0
-    face_k = springs.face_k
-    face_law = springs.face_law
-    spring_area = springs.spring_area
-    body_pos = bs.body_pos
-    body_rot = bs.body_rot
-    body_dq = bs.body_dq
-    body_wrench = bs.body_wrench
-    body_support = bs.body_support
-    spring_force = bs.spring_force
-    (law_dashpot, law_g, law_a, law_b, kelvin_a, kelvin_b, spring_state, spring_gap, spring_q,
-     spring_fv, spring_wv, inv_dt) = visc
     phase_ptr = springs.phase_ptr
-    for g in range(0, phase_ptr[phase_ptr.shape[0] - 1]):
-        _viscous_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spring_slot,
-                       face_frame0, face_k, face_law, spring_area, body_pos, body_rot,
-                       body_dq, body_wrench, body_support, store, spring_force, spring_state,
-                       law_dashpot, law_g, law_a, law_b, kelvin_a, kelvin_b, inv_dt,
-                       spring_gap, spring_q, spring_fv, spring_wv)
+    _viscous_range(np.int64(0), np.int64(phase_ptr[phase_ptr.shape[0] - 1]), springs, bs,
+                   visc, store)
 
 
 @nb.njit(**JIT)
