@@ -35,6 +35,8 @@ import math
 
 import numba as nb
 import numpy as np
+from numba.core import types
+from numba.extending import overload
 
 from .laws import (BROKEN, CONTACT, ELASTIC, P_COH, P_CRIT, P_EPSCR, P_FT, P_GF, P_GS, P_MODEL,
                    P_MU, P_RS, P_RUPT, P_SY, P_TANPHI, P_TENSION, YIELDED)
@@ -42,7 +44,6 @@ from .laws.contact import CONTACT_OFF, contact_traction
 from .laws.plastic import CONTINUUM, plastic_return
 from .laws.rupture import (MIXED, SOFTENING, STRAIN, equivalent_strain, mixed_mode_damage,
                            softening_damage)
-from .jit import NOALIAS
 from .springs import (add_wrench, clear_part, flush_a, gap_and_scaled_frame, material_points,
                       mid_increment, part_range, scaled_frame)
 
@@ -400,13 +401,10 @@ def _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
                 add_moment(b, -1.0, lb0, lb1, lb2, f0, f1, f2, cell_moment)
     flush_a(cur, w0, w1, w2, w3, w4, w5, body_wrench)
 
-@nb.njit(**JIT, **NOALIAS)
-def _inelastic_range(lo, hi, parts, springs, bs, hist, store, substep):
-    """Groups lo..hi in order, the group inlined: the one compiled loop of
-    the pass, run on one thread (small models) and for each group of a
-    phase (a prange body inlining the group compiled 3–6 times slower for
-    the same step; physics/jit.py)."""
-    # the fields into locals before the loop (physics/arrays.py)
+@nb.njit(parallel=True, **JIT)
+def _inelastic_phase(lo, hi, parts, springs, bs, hist, store, substep):
+    """Groups lo..hi of one phase in parallel (they share no body)."""
+    # the fields into locals before the prange (physics/arrays.py)
     group_ptr = springs.group_ptr
     spring_bodies = springs.spring_bodies
     spring_arm_a = springs.spring_arm_a
@@ -433,7 +431,7 @@ def _inelastic_range(lo, hi, parts, springs, bs, hist, store, substep):
     cell_dep = hist.cell_dep
     cell_moment = hist.cell_moment
     gather = cell_moment.shape[0] > 0
-    for g in range(lo, hi):
+    for g in nb.prange(lo, hi):
         if g < parts:
             clear_part(g, parts, body_wrench, body_support)
             if gather:
@@ -445,22 +443,78 @@ def _inelastic_range(lo, hi, parts, springs, bs, hist, store, substep):
                          spring_force, substep, cell_dep, cell_moment)
 
 
-@nb.njit(parallel=True, **JIT)
-def _inelastic_phase(lo, hi, parts, springs, bs, hist, store, substep):
-    """Groups lo..hi of one phase in parallel (they share no body), a range
-    call per group: the containers go whole into a compiled call, which
-    Numba's prange handles (a field read inside the loop it does not:
-    physics/arrays.py)."""
-    for g in nb.prange(lo, hi):
-        _inelastic_range(np.int64(g), np.int64(g) + 1, parts, springs, bs, hist, store, substep)
-
-
 @nb.njit(**JIT)
 def _inelastic_serial(springs, bs, hist, store, substep):
     """Every group in order, one thread (small models)."""
+    group_ptr = springs.group_ptr
+    spring_bodies = springs.spring_bodies
+    spring_arm_a = springs.spring_arm_a
+    spring_arm_b = springs.spring_arm_b
+    spring_slot = springs.spring_slot
+    face_frame0 = springs.face_frame0
+    face_k = springs.face_k
+    spring_area = springs.spring_area
+    face_h = springs.face_h
+    face_law = springs.face_law
+    law_params = springs.law_params
+    body_pos = bs.body_pos
+    body_rot = bs.body_rot
+    body_dq = bs.body_dq
+    body_wrench = bs.body_wrench
+    body_support = bs.body_support
+    spring_force = bs.spring_force
+    spring_state = hist.spring_state
+    spring_dp = hist.spring_dp
+    spring_kappa = hist.spring_kappa
+    spring_dmg = hist.spring_dmg
+    spring_wp = hist.spring_wp
+    spring_wf = hist.spring_wf
+    cell_dep = hist.cell_dep
+    cell_moment = hist.cell_moment
+    gather = cell_moment.shape[0] > 0
     phase_ptr = springs.phase_ptr
-    _inelastic_range(np.int64(0), np.int64(phase_ptr[phase_ptr.shape[0] - 1]), phase_ptr[1],
-                     springs, bs, hist, store, substep)
+    parts = phase_ptr[1]
+    for g in range(0, phase_ptr[phase_ptr.shape[0] - 1]):
+        if g < parts:
+            clear_part(g, parts, body_wrench, body_support)
+            if gather:
+                clear_moment(g, parts, cell_moment)
+        _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spring_slot,
+                         face_frame0, face_k, spring_area, face_h, face_law, law_params,
+                         body_pos, body_rot, body_dq, body_wrench, body_support, spring_state,
+                         spring_dp, spring_kappa, spring_dmg, spring_wp, spring_wf, store,
+                         spring_force, substep, cell_dep, cell_moment)
+
+
+@nb.njit(**JIT)
+def _inelastic_phases(springs, bs, hist, store, substep):
+    """Phase by phase, each in parallel."""
+    phase_ptr = springs.phase_ptr
+    parts = phase_ptr[1]
+    for ph in range(phase_ptr.shape[0] - 1):
+        _inelastic_phase(phase_ptr[ph], phase_ptr[ph + 1], parts, springs, bs, hist, store,
+                         substep)
+
+
+def _inelastic_threads(springs, bs, hist, store, substep, parallel):
+    """The serial or the threaded pass, by `parallel`'s type (compiled
+    callers only)."""
+    raise NotImplementedError("a compiled function only")
+
+
+@overload(_inelastic_threads, jit_options=dict(nogil=True, error_model="numpy"))
+def _inelastic_threads_of(springs, bs, hist, store, substep, parallel):
+    # chosen by type: `if parallel is None` is pruned before typing only
+    # when parallel is None, so a threaded run compiled the serial variant
+    # as well (48 s of a cold brazilian_disc, unused)
+    if isinstance(parallel, types.NoneType):
+        def serial(springs, bs, hist, store, substep, parallel):
+            _inelastic_serial(springs, bs, hist, store, substep)
+        return serial
+
+    def threaded(springs, bs, hist, store, substep, parallel):
+        _inelastic_phases(springs, bs, hist, store, substep)
+    return threaded
 
 
 @nb.njit(**JIT)
@@ -471,15 +525,13 @@ def inelastic_spring_pass(springs, bs, hist, store, substep, parallel):
     `store`: also write each spring's force (output steps); `substep`: the
     explicit step's share of a strain-law spring breaking inside the step.
     Phase 0's groups first zero their parts' accumulators
-    (springs.clear_part).  `parallel` None: one thread in group order."""
-    if parallel is None:
-        _inelastic_serial(springs, bs, hist, store, substep)
-        return
-    phase_ptr = springs.phase_ptr
-    parts = phase_ptr[1]
-    for ph in range(phase_ptr.shape[0] - 1):
-        _inelastic_phase(phase_ptr[ph], phase_ptr[ph + 1], parts, springs, bs, hist, store,
-                         substep)
+    (springs.clear_part).  `parallel` None: one thread in group order.
+
+    The group stays inlined into the prange body (_inelastic_phase): as a
+    range function of its own, as the elastic pass has, it compiled 3 times
+    faster but stepped 30-38 % slower on a notched tension specimen
+    (benchmarks/results/compile.md)."""
+    _inelastic_threads(springs, bs, hist, store, substep, parallel)
 
 
 #: share of the radial return taken per pass (finish_cell_stress): a cell's

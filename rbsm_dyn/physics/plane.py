@@ -262,11 +262,9 @@ def _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, sp
     body_wrench[cur, 2] += w2
 
 
-@nb.njit(**IJIT, **NOALIAS)
-def _inelastic_range(lo, hi, parts, psprings, ps, hist, store, substep):
-    """Groups lo..hi in order, the group inlined: the one compiled loop of
-    the pass, on one thread (small models) or for each group of a phase
-    (physics/jit.py)."""
+@nb.njit(parallel=True, **IJIT)
+def _inelastic_phase(lo, hi, parts, psprings, ps, hist, store, substep):
+    """Groups lo..hi of one phase in parallel (they share no body)."""
     group_ptr = psprings.group_ptr
     spring_bodies = psprings.spring_bodies
     spring_arm_a = psprings.spring_arm_a
@@ -292,7 +290,7 @@ def _inelastic_range(lo, hi, parts, psprings, ps, hist, store, substep):
     cell_dep = hist.cell_dep
     cell_moment = hist.cell_moment
     gather = cell_moment.shape[0] > 0
-    for g in range(lo, hi):
+    for g in nb.prange(lo, hi):
         if g < parts:
             _clear_part(g, parts, body_wrench, body_support)
             if gather:
@@ -304,20 +302,46 @@ def _inelastic_range(lo, hi, parts, psprings, ps, hist, store, substep):
                          substep, cell_dep, cell_moment)
 
 
-@nb.njit(parallel=True, **IJIT)
-def _inelastic_phase(lo, hi, parts, psprings, ps, hist, store, substep):
-    """Groups lo..hi of one phase in parallel (they share no body)."""
-    for g in nb.prange(lo, hi):
-        _inelastic_range(np.int64(g), np.int64(g) + 1, parts, psprings, ps, hist, store,
-                         substep)
-
-
 @nb.njit(**IJIT)
 def _inelastic_serial(psprings, ps, hist, store, substep):
     """Every group in order, one thread (small models)."""
+    group_ptr = psprings.group_ptr
+    spring_bodies = psprings.spring_bodies
+    spring_arm_a = psprings.spring_arm_a
+    spring_arm_b = psprings.spring_arm_b
+    spring_slot = psprings.spring_slot
+    face_n0 = psprings.face_n0
+    face_k = psprings.face_k
+    spring_area = psprings.spring_area
+    face_h = psprings.face_h
+    face_law = psprings.face_law
+    law_params = psprings.law_params
+    body_pos = ps.body_pos
+    body_cs = ps.body_cs
+    body_wrench = ps.body_wrench
+    body_support = ps.body_support
+    spring_force = ps.spring_force
+    spring_state = hist.spring_state
+    spring_dp = hist.spring_dp
+    spring_kappa = hist.spring_kappa
+    spring_dmg = hist.spring_dmg
+    spring_wp = hist.spring_wp
+    spring_wf = hist.spring_wf
+    cell_dep = hist.cell_dep
+    cell_moment = hist.cell_moment
+    gather = cell_moment.shape[0] > 0
     phase_ptr = psprings.phase_ptr
-    _inelastic_range(np.int64(0), np.int64(phase_ptr[phase_ptr.shape[0] - 1]), phase_ptr[1],
-                     psprings, ps, hist, store, substep)
+    parts = phase_ptr[1]
+    for g in range(0, phase_ptr[phase_ptr.shape[0] - 1]):
+        if g < parts:
+            _clear_part(g, parts, body_wrench, body_support)
+            if gather:
+                clear_moment(g, parts, cell_moment)
+        _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spring_slot,
+                         face_n0, face_k, spring_area, face_h, face_law, law_params, body_pos,
+                         body_cs, body_wrench, body_support, spring_state, spring_dp,
+                         spring_kappa, spring_dmg, spring_wp, spring_wf, store, spring_force,
+                         substep, cell_dep, cell_moment)
 
 
 @nb.njit(**IJIT)
