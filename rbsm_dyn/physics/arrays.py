@@ -83,7 +83,10 @@ Python (solvers/passes.py).  A switch that is off passes None for its
 container: Numba prunes `if x is None` branches before typing, so the pass
 behind it is neither typed nor compiled (a bool flag or numba.literally
 still compiles both branches; a function passed as an argument is not
-cached across processes: measured, numba 0.68).
+cached across processes: measured, numba 0.68).  The pruning works one
+way only: when x is not None, `if x is None:` is kept and its arm is
+compiled too; where both arms call a pass, it is chosen by x's type with
+numba.extending.overload (passes.spring_pass, inelastic._inelastic_threads).
 
 Rules that keep the containers as fast and as correct as separate arrays
 (measured, numba 0.68, issue 26): a parallel kernel copies the fields it

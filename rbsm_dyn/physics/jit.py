@@ -1,9 +1,10 @@
 """`noalias`: the Numba option the spring passes' range functions compile with.
 
-A spring pass runs its groups through one range function (a plain
-compiled loop over groups, physics/inelastic.py `_inelastic_range`):
-called on one thread for small models and from the prange over a phase's
-groups for large ones, so one compile serves both.  Numba outlines a
+The elastic spring pass (physics/springs.py `_elastic_range`), the body
+pass, the viscous pass and the contact pair forces run their groups
+through one range function, a plain compiled loop: called on one thread
+for small models and from the prange over a phase's groups for large
+ones, so one compile serves both, and the prange's body is one call.  Numba outlines a
 prange body into a function whose array arguments it marks `noalias`
 (LLVM may then keep loaded values in registers across stores into other
 arrays); a plain njit function has no such option, and the same loop
