@@ -7,7 +7,7 @@ names no case that is not there, (ii) each test it names exists (the
 module imports, the function is in it), and a test said to read the case
 file does name it, (iii) each case validates with ``load_case`` and
 starts with its header (tests/test_cases.py runs each from the command
-line: `check`, then 20 steps).
+line: `check`, then 20 steps unless a test here runs it to its end).
 
 ``reads_case``: True when the test runs the case file itself (or the case
 file with one value changed, said in ``note``); False when it runs the same
@@ -160,19 +160,19 @@ TABLE: dict[str, Check] = {
              "0.5 g and its energy figures are not asserted (the contact model's "
              "tangential spring, docs/theory.md)"),
     "three_point_bending.yaml": Check(
-        "elastic CMOD/P = 2.97e-8 m/N (Tada, Paris & Irwin 2.13); peak 1.02 kN, work of "
+        "elastic CMOD/P = 2.97e-8 m/N (Tada, Paris & Irwin 2.13); peak 1.00 kN, work of "
         "fracture → G_f = 100 J/m²",
         ("tests/test_case_answers.py::test_three_point_bending_elastic_cmod_compliance",
          "tests/test_case_answers.py::test_three_point_bending_work_of_fracture",
          "tests/test_case_answers.py::test_three_point_bending_peak_between_ligament_bounds",
          "tests/test_parts.py::test_beam_on_rigid_rollers_under_a_rigid_platen"),
         reads_case=True,
-        note="the case file itself: CMOD/P within 10 % of Tada 2.13 (RILEM C_i fit, "
-             "10–50 % of the peak; the ringing load during the ramp and pre-peak "
-             "softening make 5 % too tight), "
+        note="the case file itself (Newton under CMOD control): CMOD/P within 10 % of "
+             "Tada 2.13 (RILEM C_i, the load steps below half the peak; between plane "
+             "stress and strain, contact indentation and pre-peak softening), "
              "W/(b(W − a0)) by the run's end in (0.6, 1.0) G_f, the peak between the "
              "ligament's elastic net-section and limit loads (no formula gives the "
-             "cohesive peak within 25 %: the header's 1.02 kN is not asserted as such)"),
+             "cohesive peak within 25 %: the header's 1 003.5 N is not asserted as such)"),
 }
 
 
@@ -219,8 +219,8 @@ def test_the_tests_named_exist(case):
 @pytest.mark.parametrize("case", sorted(TABLE))
 def test_case_loads_with_its_header(case):
     """Each case file is there, starts with its header comment and
-    validates; running it (the command line's `check` and a few steps) is
-    tests/test_cases.py's, once per case."""
+    validates; running it (the command line's `check` and a few steps, or
+    the whole case by a test of its answer) is tests/test_cases.py's."""
     path = CASES / case
     assert path.is_file(), f"cases/{case} is not there (yet)"
     assert path.read_text(encoding="utf-8").startswith("#"), (
