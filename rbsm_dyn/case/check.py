@@ -291,11 +291,12 @@ def _check(case: Case) -> None:
                         raise err(rp + (key,), "required key missing (rupture "
                                   "needs strain or fracture_energy and tensile_strength)")
             else:
-                check_only(r, ["law", "shear_strength", "shear_fracture_energy", "values"], rp,
+                check_only(r, ["law", "shear_strength", "shear_fracture_energy", "values", "rate"],
+                           rp,
                            "with rupture strain (only with fracture_energy and "
                            "tensile_strength)")
             if r.law == "tension":
-                check_only(r, ["shear_strength", "shear_fracture_energy"], rp,
+                check_only(r, ["shear_strength", "shear_fracture_energy", "rate"], rp,
                            "with law tension (only mixed_mode)")
 
     for name, g in case.groups.items():

@@ -27,7 +27,7 @@ class Yield(_Node):
 
 class Rupture(_Node):
     """``{strain}`` or ``{fracture_energy, tensile_strength}`` (+ ``law``,
-    ``shear_strength``, ``shear_fracture_energy``, ``values``)."""
+    ``shear_strength``, ``shear_fracture_energy``, ``values``, ``rate``)."""
     strain: Optional[float] = Field(default=None, gt=0)
     fracture_energy: Optional[float] = Field(default=None, gt=0)
     tensile_strength: Optional[float] = Field(default=None, gt=0)
@@ -35,6 +35,7 @@ class Rupture(_Node):
     shear_strength: Optional[float] = Field(default=None, gt=0)
     shear_fracture_energy: Optional[float] = Field(default=None, gt=0)
     values: Literal["material", "spring"] = "material"
+    rate: Optional[Literal["fib2010"]] = None
 
 
 class Viscoelastic(_Node):

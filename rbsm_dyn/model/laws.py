@@ -8,8 +8,9 @@ import numpy as np
 from ..calibration import plane_stiffness_rule, stiffness_rule
 from ..fracture_calibration import fracture_ratios
 from ..physics.laws import (CONTACT_OFF, CRITERIA, N_PARAMS, P_COH, P_CRIT, P_EPSCR, P_FT,
-                            P_GF, P_GS, P_MODEL, P_MU, P_RS, P_RUPT, P_SY, P_TANPHI, P_TENSION,
-                            RUPTURE_KINDS)
+                            P_GF, P_GS, P_MODEL, P_MU, P_RATE, P_RS, P_RUPT, P_SLOW, P_SY,
+                            P_TANPHI, P_TENSION, RUPTURE_KINDS)
+from ..physics.laws.rupture import RATE_LAWS
 from ..physics.laws.plastic import MODELS
 from .core import IDX
 
@@ -66,6 +67,9 @@ def material_law_row(mat, mesh_kind="voronoi", cell_size=None):
             g_s = r.fracture_energy if r.shear_fracture_energy is None \
                 else r.shear_fracture_energy
             row[P_GS] = g_s / g_f
+            if r.rate is not None:
+                row[P_RATE] = RATE_LAWS[r.rate]
+                row[P_SLOW] = np.sqrt(mat.density / mat.young)
     row[P_MU] = mat.friction or 0.0
     return row
 

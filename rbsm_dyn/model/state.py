@@ -5,6 +5,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..physics.integrate import refresh_all_rotations
+from ..physics.laws import P_RATE
 from .contact import new_contact_state
 
 
@@ -26,6 +27,8 @@ class State:
     spring_kappa (S,) [m] largest opening (strain law: last equivalent
     strain, physics/inelastic.py); spring_dmg (S,) damage;
     spring_wp, spring_wf (S,) [J] plastic and fracture dissipation;
+    spring_rate (S,) [1/s] the smoothed rate of equivalent strain when a
+    law has `rate` (else length 0; physics/laws/rupture.py smoothed_rate);
     with the Poisson correction also cell_chi (N,) χ_c at the last step
     and cell_wf (N,) [J] the energy released by its fall (physics/poisson.py).
     Plane models (length N+1 when Model.plane, else 0): body_theta [rad]
@@ -62,6 +65,7 @@ class State:
     spring_dmg: np.ndarray = None
     spring_wp: np.ndarray = None
     spring_wf: np.ndarray = None
+    spring_rate: np.ndarray = None
     cell_chi: np.ndarray = None
     cell_wf: np.ndarray = None
     cell_moment: np.ndarray = None
@@ -104,6 +108,8 @@ def new_state(model):
     st.spring_dmg = np.zeros(si)
     st.spring_wp = np.zeros(si)
     st.spring_wf = np.zeros(si)
+    rated = si and bool(np.any(model.law_params[:, P_RATE] > 0))
+    st.spring_rate = np.zeros(si if rated else 0)
     nc = n + 1 if model.cell_ivol.size else 0
     st.cell_moment = np.zeros((nc, 6))
     st.cell_sigma = np.zeros((nc, 6))

@@ -39,7 +39,8 @@ State (changes every step)
                  on body a of each spring (written when a pass is asked to
                  `store`: output steps)
   SpringHistory  spring_state (S,) int8; spring_dp (S, 3) [m]; spring_kappa
-                 (S,); spring_dmg (S,); spring_wp, spring_wf (S,) [J]
+                 (S,); spring_dmg (S,); spring_wp, spring_wf (S,) [J];
+                 spring_rate (S,) [1/s] (length 0 without a `rate` law)
                  (physics/inelastic.py); cell_chi (N,) the auxiliary
                  stress's factor χ_c at the last step and cell_wf (N,) [J]
                  the energy its fall released (physics/poisson.py; length
@@ -102,7 +103,7 @@ function instead, measured numba 0.68); and
 a constant passed from compiled code to a kernel is typed Literal[bool]
 and compiles a variant of the callee of its own beside the bool of a
 Python caller: flag() makes it a run-time bool where one variant is
-wanted (the time loops keep store and substep constant on purpose, for the
+wanted (the time loops keep store constant on purpose, for the
 speed of the folded branch: docs/modules.md).
 """
 from typing import NamedTuple
@@ -182,6 +183,7 @@ class SpringHistory(NamedTuple):
     spring_dmg: np.ndarray
     spring_wp: np.ndarray
     spring_wf: np.ndarray
+    spring_rate: np.ndarray
     cell_chi: np.ndarray
     cell_wf: np.ndarray
     cell_moment: np.ndarray

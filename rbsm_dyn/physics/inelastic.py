@@ -13,7 +13,8 @@ the last step's equivalent opening (law mixed_mode) or equivalent strain
 (law strain; once broken, the share λ of _crossing_share still to book,
 with the gap it acted on in spring_dp, for one step), spring_dmg (S,)
 damage, spring_wp, spring_wf (S,) [J] plastic (incl. friction) and
-fracture dissipation so far.
+fracture dissipation so far, spring_rate (S,) [1/s] the smoothed rate of
+equivalent strain of a `rate` law ((0,) when no law has one).
 
 Order for an intact spring (laws in physics/laws/):
   1. softening damage from the largest elastic opening (rupture.py),
@@ -21,7 +22,7 @@ Order for an intact spring (laws in physics/laws/):
   3. return mapping onto the yield surface (plastic.py), δp and W_p grow,
   4. rupture by strain or full damage: the spring turns into contact and
      the elastic energy it loses is W_f (strain law in an explicit step,
-     `substep`: the energy at the crossing of ε_cr, _crossing_share).
+     `step` > 0: the energy at the crossing of ε_cr, _crossing_share).
 A broken spring is a contact (contact.py) until its gap |δ| exceeds the
 spring length h (opened, slid or turned by a whole cell): then the two
 cells have parted and the pair is never in contact again (spring_kappa =
@@ -39,11 +40,11 @@ from numba.core import types
 from numba.extending import overload
 
 from .laws import (BROKEN, CONTACT, ELASTIC, P_COH, P_CRIT, P_EPSCR, P_FT, P_GF, P_GS, P_MODEL,
-                   P_MU, P_RS, P_RUPT, P_SY, P_TANPHI, P_TENSION, YIELDED)
+                   P_MU, P_RATE, P_RS, P_RUPT, P_SLOW, P_SY, P_TANPHI, P_TENSION, YIELDED)
 from .laws.contact import CONTACT_OFF, contact_traction
 from .laws.plastic import CONTINUUM, plastic_return
-from .laws.rupture import (MIXED, SOFTENING, STRAIN, equivalent_strain, mixed_mode_damage,
-                           softening_damage)
+from .laws.rupture import (MIXED, SOFTENING, STRAIN, equivalent_strain, fib2010_tension_dif,
+                           mixed_mode_damage, smoothed_rate, softening_damage)
 from .springs import (add_wrench, clear_part, flush_a, gap_and_scaled_frame, material_points,
                       mid_increment, part_range, scaled_frame)
 
@@ -92,7 +93,7 @@ def _crossing_share(r, rho):
 @nb.njit(inline="always", **JIT)
 def spring_law(s, f, dn, ds, dt, turned, area, kn, ks, kt, face_h, face_law, law_params,
                spring_state, spring_dp, spring_kappa, spring_dmg, spring_wp, spring_wf,
-               substep):
+               spring_rate, step):
     """The inelastic law of spring point s (of face f) at its local gap
     (dn, ds, dt) [m] in the turned spring frame: its traction's forces
     (fn, fs, ft) [N], the history updated (module docstring, steps 1-4,
@@ -109,7 +110,7 @@ def spring_law(s, f, dn, ds, dt, turned, area, kn, ks, kt, face_h, face_law, law
     state = spring_state[s]
     fn = fs = ft = 0.0
     gn = gs = gt = lam = 0.0
-    crossed = False            # strain law broken inside this step (substep)
+    crossed = False            # strain law broken inside this step (step)
     if state < BROKEN:
         en = dn - spring_dp[s, 0]
         es = ds - spring_dp[s, 1]
@@ -140,8 +141,18 @@ def spring_law(s, f, dn, ds, dt, turned, area, kn, ks, kt, face_h, face_law, law
                     dmg = dnew
                     spring_dmg[s] = dmg
         elif rupt == MIXED:
+            strength = law_params[li, P_FT]
+            # the envelope raised by the rate of the steps before this one;
+            # the rate is held from the step the spring starts to soften
+            # (smoothed_rate): the factor is that of the loading it failed at
+            # (spring_rate has no rows unless a law has a rate: a run without
+            # one tests a loop-invariant length, not the law's row)
+            rated = spring_rate.shape[0] > 0 and law_params[li, P_RATE] > 0.0
+            loading = rated and dmg == 0.0
+            if rated:
+                strength *= fib2010_tension_dif(spring_rate[s])
             dnew, w = mixed_mode_damage(en, es, et, kn / area, ks / area, kt / area,
-                                        law_params[li, P_FT], law_params[li, P_GF],
+                                        strength, law_params[li, P_GF],
                                         law_params[li, P_RS], law_params[li, P_GS])
             if dnew > dmg:
                 # Y = −∂U/∂D, U = ½ (1 − D)(kn ⟨en⟩² + ks es² + kt et²) + ½ kn ⟨−en⟩²,
@@ -158,6 +169,9 @@ def spring_law(s, f, dn, ds, dt, turned, area, kn, ks, kt, face_h, face_law, law
                 spring_wf[s] += y * (dnew - dmg)
                 dmg = dnew
                 spring_dmg[s] = dmg
+            if loading and step > 0.0:
+                spring_rate[s] = smoothed_rate(spring_rate[s], spring_kappa[s], w, step,
+                                               face_h[f], law_params[li, P_SLOW])
             spring_kappa[s] = w      # equivalent opening of this step
         fn = kn * en
         if fn > 0.0:
@@ -192,7 +206,7 @@ def spring_law(s, f, dn, ds, dt, turned, area, kn, ks, kt, face_h, face_law, law
             spring_kappa[s] = eps
             if eps >= law_params[li, P_EPSCR]:
                 broken = True
-                if substep and state == ELASTIC:
+                if step > 0.0 and state == ELASTIC:
                     crossed = True
                     lam = _crossing_share(eps0 / eps, law_params[li, P_EPSCR] / eps)
         if broken:
@@ -323,7 +337,7 @@ def _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
                      spring_slot, face_frame0, face_k, spring_area, face_h, face_law, law_params,
                      body_pos, body_rot, body_dq, body_wrench, body_support,
                      spring_state, spring_dp, spring_kappa, spring_dmg, spring_wp, spring_wf,
-                     store, spring_force, substep, cell_dep, cell_moment):
+                     spring_rate, store, spring_force, step, cell_dep, cell_moment):
     """The springs of group g, in order (partition.py).  The spring points
     of one face follow each other (same a, b and reference frame): their
     turned frame F is computed once per face (springs._elastic_group).
@@ -381,7 +395,7 @@ def _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
             spring_dp[s, 2] += pt
         fn, fs, ft = spring_law(s, f, dn, ds, dt, n2 < N2_PARTED, area, kn, ks, kt, face_h,
                                 face_law, law_params, spring_state, spring_dp, spring_kappa,
-                                spring_dmg, spring_wp, spring_wf, substep)
+                                spring_dmg, spring_wp, spring_wf, spring_rate, step)
         if cont:
             spring_wp[s] += fn * pn + fs * ps + ft * pt
         f0 = F00 * fn + F01 * fs + F02 * ft
@@ -402,7 +416,7 @@ def _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b,
     flush_a(cur, w0, w1, w2, w3, w4, w5, body_wrench)
 
 @nb.njit(parallel=True, **JIT)
-def _inelastic_phase(lo, hi, parts, springs, bs, hist, store, substep):
+def _inelastic_phase(lo, hi, parts, springs, bs, hist, store, step):
     """Groups lo..hi of one phase in parallel (they share no body)."""
     # the fields into locals before the prange (physics/arrays.py)
     group_ptr = springs.group_ptr
@@ -428,6 +442,7 @@ def _inelastic_phase(lo, hi, parts, springs, bs, hist, store, substep):
     spring_dmg = hist.spring_dmg
     spring_wp = hist.spring_wp
     spring_wf = hist.spring_wf
+    spring_rate = hist.spring_rate
     cell_dep = hist.cell_dep
     cell_moment = hist.cell_moment
     gather = cell_moment.shape[0] > 0
@@ -439,12 +454,12 @@ def _inelastic_phase(lo, hi, parts, springs, bs, hist, store, substep):
         _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spring_slot,
                          face_frame0, face_k, spring_area, face_h, face_law, law_params,
                          body_pos, body_rot, body_dq, body_wrench, body_support, spring_state,
-                         spring_dp, spring_kappa, spring_dmg, spring_wp, spring_wf, store,
-                         spring_force, substep, cell_dep, cell_moment)
+                         spring_dp, spring_kappa, spring_dmg, spring_wp, spring_wf, spring_rate,
+                         store, spring_force, step, cell_dep, cell_moment)
 
 
 @nb.njit(**JIT)
-def _inelastic_serial(springs, bs, hist, store, substep):
+def _inelastic_serial(springs, bs, hist, store, step):
     """Every group in order, one thread (small models)."""
     group_ptr = springs.group_ptr
     spring_bodies = springs.spring_bodies
@@ -469,6 +484,7 @@ def _inelastic_serial(springs, bs, hist, store, substep):
     spring_dmg = hist.spring_dmg
     spring_wp = hist.spring_wp
     spring_wf = hist.spring_wf
+    spring_rate = hist.spring_rate
     cell_dep = hist.cell_dep
     cell_moment = hist.cell_moment
     gather = cell_moment.shape[0] > 0
@@ -482,48 +498,50 @@ def _inelastic_serial(springs, bs, hist, store, substep):
         _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spring_slot,
                          face_frame0, face_k, spring_area, face_h, face_law, law_params,
                          body_pos, body_rot, body_dq, body_wrench, body_support, spring_state,
-                         spring_dp, spring_kappa, spring_dmg, spring_wp, spring_wf, store,
-                         spring_force, substep, cell_dep, cell_moment)
+                         spring_dp, spring_kappa, spring_dmg, spring_wp, spring_wf, spring_rate,
+                         store, spring_force, step, cell_dep, cell_moment)
 
 
 @nb.njit(**JIT)
-def _inelastic_phases(springs, bs, hist, store, substep):
+def _inelastic_phases(springs, bs, hist, store, step):
     """Phase by phase, each in parallel."""
     phase_ptr = springs.phase_ptr
     parts = phase_ptr[1]
     for ph in range(phase_ptr.shape[0] - 1):
         _inelastic_phase(phase_ptr[ph], phase_ptr[ph + 1], parts, springs, bs, hist, store,
-                         substep)
+                         step)
 
 
-def _inelastic_threads(springs, bs, hist, store, substep, parallel):
+def _inelastic_threads(springs, bs, hist, store, step, parallel):
     """The serial or the threaded pass, by `parallel`'s type (compiled
     callers only)."""
     raise NotImplementedError("a compiled function only")
 
 
 @overload(_inelastic_threads, jit_options=dict(nogil=True, error_model="numpy"))
-def _inelastic_threads_of(springs, bs, hist, store, substep, parallel):
+def _inelastic_threads_of(springs, bs, hist, store, step, parallel):
     # chosen by type: `if parallel is None` is pruned before typing only
     # when parallel is None, so a threaded run compiled the serial variant
     # as well (48 s of a cold brazilian_disc, unused)
     if isinstance(parallel, types.NoneType):
-        def serial(springs, bs, hist, store, substep, parallel):
-            _inelastic_serial(springs, bs, hist, store, substep)
+        def serial(springs, bs, hist, store, step, parallel):
+            _inelastic_serial(springs, bs, hist, store, step)
         return serial
 
-    def threaded(springs, bs, hist, store, substep, parallel):
-        _inelastic_phases(springs, bs, hist, store, substep)
+    def threaded(springs, bs, hist, store, step, parallel):
+        _inelastic_phases(springs, bs, hist, store, step)
     return threaded
 
 
 @nb.njit(**JIT)
-def inelastic_spring_pass(springs, bs, hist, store, substep, parallel):
+def inelastic_spring_pass(springs, bs, hist, store, step, parallel):
     """Forces of elastic–plastic, rupturing and contact springs (see module),
     summed into the bodies' wrenches in the schedule of partition.py, with
     the spring history `hist` (arrays.SpringHistory) updated;
-    `store`: also write each spring's force (output steps); `substep`: the
-    explicit step's share of a strain-law spring breaking inside the step.
+    `store`: also write each spring's force (output steps); `step` [s]: the
+    explicit time step (0: a static pass): a strain-law spring breaking
+    inside the step keeps its share of the force, and the loading rate of
+    the `rate` laws is smoothed over it (spring_rate, laws/rupture.py).
     Phase 0's groups first zero their parts' accumulators
     (springs.clear_part).  `parallel` None: one thread in group order.
 
@@ -531,7 +549,7 @@ def inelastic_spring_pass(springs, bs, hist, store, substep, parallel):
     range function of its own, as the elastic pass has, it compiled 3 times
     faster but stepped 30-38 % slower on a notched tension specimen
     (benchmarks/results/compile.md)."""
-    _inelastic_threads(springs, bs, hist, store, substep, parallel)
+    _inelastic_threads(springs, bs, hist, store, step, parallel)
 
 
 #: share of the radial return taken per pass (finish_cell_stress): a cell's

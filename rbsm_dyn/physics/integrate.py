@@ -433,11 +433,12 @@ def run_dynamic(n_steps, step0, stepping, bodies, springs, loads, bs, hist, aux,
     yes = flag(True)
     for k in range(n_steps):
         t = stepping.t0 + (step0 + k) * stepping.dt
-        # store, substep as constants: the loop gets a spring pass compiled
-        # for them, `if store:` folded out of the per-spring loop (a run-time
-        # flag there made the step 8-22 % slower); output frames compile
-        # their own variant (two per run, as before issue 26)
-        spring_forces(springs, bs, hist, aux, False, True, parallel)
+        # store as a constant: the loop gets a spring pass compiled for it,
+        # `if store:` folded out of the per-spring loop (a run-time flag
+        # there made the step 8-22 % slower); output frames compile their
+        # own variant (two per run, as before issue 26).  The step [s]: a
+        # strain-law break's share and the rate laws' smoothing
+        spring_forces(springs, bs, hist, aux, False, stepping.dt, parallel)
         if contact is not None:
             contact_step(contact, bodies, bs, stepping.dt, yes)
         if visc is not None:

@@ -173,8 +173,8 @@ def plane_spring_pass(psprings, ps, store, parallel):
 def _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spring_slot,
                      face_n0, face_k, spring_area, face_h, face_law, law_params, body_pos,
                      body_cs, body_wrench, body_support, spring_state, spring_dp, spring_kappa,
-                     spring_dmg, spring_wp, spring_wf, store, spring_force, substep, cell_dep,
-                     cell_moment):
+                     spring_dmg, spring_wp, spring_wf, spring_rate, store, spring_force, step,
+                     cell_dep, cell_moment):
     """The springs of group g with the inelastic law (physics/inelastic.py
     spring_law, shared with the 3D pass): the local gap in the frame
     (n, e_z × n, e_z) turned by the mid rotation (model/springs.py
@@ -228,7 +228,8 @@ def _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, sp
         # turned by more than a right angle against each other: cos(θa − θb) < 0
         fn, fs, ft = spring_law(s, f, dn, ds, 0.0, ca * cb + sa * sb < 0.0, area, kn, ks, ks,
                                 face_h, face_law, law_params, spring_state, spring_dp,
-                                spring_kappa, spring_dmg, spring_wp, spring_wf, substep)
+                                spring_kappa, spring_dmg, spring_wp, spring_wf, spring_rate,
+                                step)
         if cont:
             spring_wp[s] += fn * pn + fs * ps
         f0 = fn * nx - fs * ny
@@ -263,7 +264,7 @@ def _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, sp
 
 
 @nb.njit(parallel=True, **IJIT)
-def _inelastic_phase(lo, hi, parts, psprings, ps, hist, store, substep):
+def _inelastic_phase(lo, hi, parts, psprings, ps, hist, store, step):
     """Groups lo..hi of one phase in parallel (they share no body)."""
     group_ptr = psprings.group_ptr
     spring_bodies = psprings.spring_bodies
@@ -287,6 +288,7 @@ def _inelastic_phase(lo, hi, parts, psprings, ps, hist, store, substep):
     spring_dmg = hist.spring_dmg
     spring_wp = hist.spring_wp
     spring_wf = hist.spring_wf
+    spring_rate = hist.spring_rate
     cell_dep = hist.cell_dep
     cell_moment = hist.cell_moment
     gather = cell_moment.shape[0] > 0
@@ -298,12 +300,12 @@ def _inelastic_phase(lo, hi, parts, psprings, ps, hist, store, substep):
         _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spring_slot,
                          face_n0, face_k, spring_area, face_h, face_law, law_params, body_pos,
                          body_cs, body_wrench, body_support, spring_state, spring_dp,
-                         spring_kappa, spring_dmg, spring_wp, spring_wf, store, spring_force,
-                         substep, cell_dep, cell_moment)
+                         spring_kappa, spring_dmg, spring_wp, spring_wf, spring_rate, store,
+                         spring_force, step, cell_dep, cell_moment)
 
 
 @nb.njit(**IJIT)
-def _inelastic_serial(psprings, ps, hist, store, substep):
+def _inelastic_serial(psprings, ps, hist, store, step):
     """Every group in order, one thread (small models)."""
     group_ptr = psprings.group_ptr
     spring_bodies = psprings.spring_bodies
@@ -327,6 +329,7 @@ def _inelastic_serial(psprings, ps, hist, store, substep):
     spring_dmg = hist.spring_dmg
     spring_wp = hist.spring_wp
     spring_wf = hist.spring_wf
+    spring_rate = hist.spring_rate
     cell_dep = hist.cell_dep
     cell_moment = hist.cell_moment
     gather = cell_moment.shape[0] > 0
@@ -340,23 +343,23 @@ def _inelastic_serial(psprings, ps, hist, store, substep):
         _inelastic_group(g, group_ptr, spring_bodies, spring_arm_a, spring_arm_b, spring_slot,
                          face_n0, face_k, spring_area, face_h, face_law, law_params, body_pos,
                          body_cs, body_wrench, body_support, spring_state, spring_dp,
-                         spring_kappa, spring_dmg, spring_wp, spring_wf, store, spring_force,
-                         substep, cell_dep, cell_moment)
+                         spring_kappa, spring_dmg, spring_wp, spring_wf, spring_rate, store,
+                         spring_force, step, cell_dep, cell_moment)
 
 
 @nb.njit(**IJIT)
-def plane_inelastic_pass(psprings, ps, hist, store, substep, parallel):
+def plane_inelastic_pass(psprings, ps, hist, store, step, parallel):
     """Plane springs with yield, rupture and contact (hist: arrays.SpringHistory,
-    updated), summed into the bodies' wrenches; `substep`: the forces of an
+    updated), summed into the bodies' wrenches; `step`: the forces of an
     explicit step (physics/inelastic.py).  `parallel` None: one thread."""
     if parallel is None:
-        _inelastic_serial(psprings, ps, hist, store, substep)
+        _inelastic_serial(psprings, ps, hist, store, step)
     else:
         phase_ptr = psprings.phase_ptr
         parts = phase_ptr[1]
         for ph in range(phase_ptr.shape[0] - 1):
             _inelastic_phase(phase_ptr[ph], phase_ptr[ph + 1], parts, psprings, ps, hist,
-                             store, substep)
+                             store, step)
     if hist.cell_moment.shape[0] > 0:
         # continuum yield: the cells' stress for the next pass (the 3D
         # finish: ps.body_wrench's columns 0, 1 are the forces, and a plane
@@ -547,6 +550,6 @@ def run_plane(n_steps, step0, stepping, pbodies, psprings, ploads, ps, hist, par
         if hist is None:
             plane_spring_pass(psprings, ps, False, parallel)
         else:
-            plane_inelastic_pass(psprings, ps, hist, False, True, parallel)
+            plane_inelastic_pass(psprings, ps, hist, False, stepping.dt, parallel)
         plane_body_pass(t, stepping, pbodies, ploads, ps, parallel)
     return step0 + n_steps

@@ -206,7 +206,7 @@ def run_relax(n_iter, lam, c, reset, bodies, springs, loads, bs, hist, aux, rela
     for it in range(n_iter):
         first = reset and it == 0
         # constants: a spring pass compiled for them (physics/integrate.py)
-        spring_forces(springs, bs, hist, aux, False, False, parallel)
+        spring_forces(springs, bs, hist, aux, False, 0.0, parallel)
         relax_body_pass(lam, c, first, bodies, loads, bs, relax, parallel)
         if kind == ADAPTIVE:
             # Underwood's quotient -> ω_min², c = 2 ω_min

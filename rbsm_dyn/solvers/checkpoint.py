@@ -58,10 +58,10 @@ SLOTS = ("slot0", "slot1")
 ARRAYS = ("body_pos", "body_quat", "body_vel", "body_angmom", "body_rot", "body_dq",
           "body_wrench", "body_support", "spring_force", "body_work", "body_damp",
           "body_reaction", "spring_state", "spring_dp", "spring_kappa", "spring_dmg",
-          "spring_wp", "spring_wf", "cell_chi", "cell_wf", "body_theta", "body_omega",
+          "spring_wp", "spring_wf", "spring_rate", "cell_chi", "cell_wf", "body_theta", "body_omega",
           "cell_sigma", "cell_dep", "spring_gap", "spring_q", "spring_fv", "spring_wv")
 #: State arrays a checkpoint of an older rbsm_dyn lacks (the new state's values kept)
-OPTIONAL = ("cell_chi", "cell_wf", "body_theta", "body_omega", "cell_sigma", "cell_dep",
+OPTIONAL = ("spring_rate", "cell_chi", "cell_wf", "body_theta", "body_omega", "cell_sigma", "cell_dep",
             "spring_gap", "spring_q", "spring_fv", "spring_wv")
 #: ContactState arrays saved: one row per candidate pair (grow as pairs come)
 CONTACT_PAIR_ARRAYS = ("pairs", "slip", "sep", "out")

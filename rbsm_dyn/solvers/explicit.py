@@ -66,16 +66,17 @@ class RunFailed(RuntimeError):
     """A run that stopped early (divergence, no convergence)."""
 
 
-def spring_pass(model, state, substep=False, static=False):
+def spring_pass(model, state, step=0.0, static=False):
     """Spring wrenches on the bodies (with the auxiliary stress of the
     Poisson correction, physics/poisson.py) and the force on body a of every spring
     (state.spring_force) at the current positions, for output and
     synchronisation: an inelastic pass works on copies of the spring history,
     so repeating it at an output step changes nothing; those copies, the
     spring history at the current positions, are returned (None for an
-    elastic model).  `substep`: the
-    forces of the explicit time step (a strain-law spring breaking inside
-    the step keeps a share of its force, physics/inelastic.py).  `static`:
+    elastic model).  `step` [s]: the
+    forces of an explicit time step of that size (a strain-law spring
+    breaking inside the step keeps a share of its force, and a rate law's
+    smoothed rate moves on, physics/inelastic.py; 0: a static pass).  `static`:
     a static solution's frame: the viscous springs' committed forces (no
     step in time; solvers/creep.py)."""
     m = model
@@ -83,7 +84,7 @@ def spring_pass(model, state, substep=False, static=False):
     bodies, springs, loads = model_arrays(m)
     bs = body_state(state)
     hist = history(state, opt, copy=True)
-    spring_forces(springs, bs, hist, aux_stress(m, state, opt), True, substep,
+    spring_forces(springs, bs, hist, aux_stress(m, state, opt), True, float(step),
                   parallel_arg(opt))
     trial = None if hist is None else hist._asdict()
     if m.contact is not None:
@@ -182,7 +183,7 @@ def synchronize(model, state, trial=None):
     dict that gets the spring history at the current positions
     (spring_pass), which the step from here will commit."""
     m = model
-    hist = spring_pass(m, state, substep=True)
+    hist = spring_pass(m, state, step=state.dt)
     if trial is not None and hist is not None:
         trial.update(hist)
     n = m.n_bodies

@@ -163,7 +163,7 @@ class Newton:
         opt = Options.of(m)
         bodies, springs, loads = model_arrays(m)
         hist = history(state, opt, copy=not commit)
-        spring_forces(springs, body_state(state), hist, aux_stress(m, state, opt), True, False,
+        spring_forces(springs, body_state(state), hist, aux_stress(m, state, opt), True, 0.0,
                       parallel_arg(opt))
         sstate, dmg = (None, None) if hist is None else (hist.spring_state, hist.spring_dmg)
         return sstate, dmg

@@ -38,4 +38,8 @@ P_RS = 10         # shear-to-tensile strength ratio f_s/f_t (mixed_mode)
 P_GS = 11         # mode-II fracture energy G_s [J/m²] (mixed_mode)
 P_MODEL = 12      # yield judged on: 0 the spring's traction (interface), 1 the
                   # continuum stress at the face (plastic.CONTINUUM; tresca, von_mises)
-N_PARAMS = 13
+P_RATE = 13       # strength raised with the loading rate: 0 no, 1 fib Model Code 2010
+                  # (rupture.RATE_LAWS; mixed_mode)
+P_SLOW = 14       # √(ρ/E) [s/m] of the material: the rate is smoothed over the time
+                  # h √(ρ/E) a bar wave takes to cross the spring (rupture.smoothed_rate)
+N_PARAMS = 15
