@@ -38,7 +38,7 @@ def step(m, st, u):
     τz) [Pa]: the force on body 0 over the area (DESIGN.md §1: tension pulls
     body 0 toward body 1, σ > 0)."""
     st.body_pos[1] = m.body_pos0[1] + u
-    inelastic_spring_pass(model_arrays(m)[1], body_state(st), of(SpringHistory, st), True, False,
+    inelastic_spring_pass(model_arrays(m)[1], body_state(st), of(SpringHistory, st), True, 0.0,
                           None)
     return st.spring_force.sum(axis=0) / A
 
