@@ -110,7 +110,7 @@ def spring_law(s, f, dn, ds, dt, turned, area, kn, ks, kt, face_h, face_law, law
     state = spring_state[s]
     fn = fs = ft = 0.0
     gn = gs = gt = lam = 0.0
-    crossed = False            # strain law broken inside this step (step)
+    crossed = False            # strain law broken inside this explicit step
     if state < BROKEN:
         en = dn - spring_dp[s, 0]
         es = ds - spring_dp[s, 1]
