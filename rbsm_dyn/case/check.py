@@ -291,13 +291,24 @@ def _check(case: Case) -> None:
                         raise err(rp + (key,), "required key missing (rupture "
                                   "needs strain or fracture_energy and tensile_strength)")
             else:
-                check_only(r, ["law", "shear_strength", "shear_fracture_energy", "values", "rate"],
+                check_only(r, ["law", "shear_strength", "compressive_strength",
+                               "shear_fracture_energy", "values", "rate"],
                            rp,
                            "with rupture strain (only with fracture_energy and "
                            "tensile_strength)")
             if r.law == "tension":
-                check_only(r, ["shear_strength", "shear_fracture_energy", "rate"], rp,
+                check_only(r, ["shear_strength", "compressive_strength",
+                               "shear_fracture_energy", "rate"], rp,
                            "with law tension (only mixed_mode)")
+            if r.shear_strength is not None and r.compressive_strength is not None:
+                raise err(rp + ("compressive_strength",),
+                          "give shear_strength or compressive_strength, not both (the "
+                          "compressive strength sets the shear strength: docs/calibration.md, "
+                          "\"Compression\")")
+            if r.compressive_strength is not None and r.values == "spring":
+                raise err(rp + ("compressive_strength",),
+                          "compressive_strength is a specimen's strength: it needs values: "
+                          "material (the default), not spring")
 
     for name, g in case.groups.items():
         path = ("groups", name)

@@ -27,12 +27,14 @@ class Yield(_Node):
 
 class Rupture(_Node):
     """``{strain}`` or ``{fracture_energy, tensile_strength}`` (+ ``law``,
-    ``shear_strength``, ``shear_fracture_energy``, ``values``, ``rate``)."""
+    ``shear_strength``, ``compressive_strength``, ``shear_fracture_energy``,
+    ``values``, ``rate``)."""
     strain: Optional[float] = Field(default=None, gt=0)
     fracture_energy: Optional[float] = Field(default=None, gt=0)
     tensile_strength: Optional[float] = Field(default=None, gt=0)
     law: Optional[Literal["mixed_mode", "tension"]] = None
     shear_strength: Optional[float] = Field(default=None, gt=0)
+    compressive_strength: Optional[float] = Field(default=None, gt=0)
     shear_fracture_energy: Optional[float] = Field(default=None, gt=0)
     values: Literal["material", "spring"] = "material"
     rate: Optional[Literal["fib2010"]] = None

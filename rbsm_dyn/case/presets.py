@@ -24,7 +24,7 @@ DENSITY = 2400.0        # kg/m³, plain normal-weight concrete (taken, not the M
 
 def concrete(fcm):
     """{young [Pa], poisson, tensile_strength [Pa], fracture_energy [J/m²],
-    density [kg/m³]} of a concrete of mean cylinder strength fcm [Pa] (fib
+    density [kg/m³], compressive_strength [Pa] (f_cm itself)} of a concrete of mean cylinder strength fcm [Pa] (fib
     Model Code 2010): E_ci = E_c0 α_E (f_cm/10)^(1/3) (eq. 5.1-21, the
     tangent modulus at the origin); f_ctm = 0.3 f_ck^(2/3) up to C50
     (eq. 5.1-3a), 2.12 ln(1 + 0.1 f_cm) above (eq. 5.1-3b); G_F = 73
@@ -35,14 +35,15 @@ def concrete(fcm):
     fctm = 0.3 * fck ** (2.0 / 3.0) if fck <= 50.0 else 2.12 * math.log(1.0 + 0.1 * f)
     return {"young": E_C0 * (f / 10.0) ** (1.0 / 3.0) * 1e6, "poisson": POISSON,
             "tensile_strength": fctm * 1e6, "fracture_energy": 73.0 * f ** 0.18,
-            "density": DENSITY}
+            "density": DENSITY, "compressive_strength": fcm}
 
 
-_SOURCE = {"young": "eq. 5.1-21", "poisson": "§5.1.7.3", "tensile_strength": "eq. 5.1-3",
+_SOURCE = {"compressive_strength": "f_cm, through the shear strength",
+           "young": "eq. 5.1-21", "poisson": "§5.1.7.3", "tensile_strength": "eq. 5.1-3",
            "fracture_energy": "eq. 5.1-9", "density": "normal-weight concrete"}
-_DIMENSION = {"young": "stress", "tensile_strength": "stress",
+_DIMENSION = {"compressive_strength": "stress", "young": "stress", "tensile_strength": "stress",
               "fracture_energy": "energy/area", "density": "density"}
-_SI_UNIT = {"young": "Pa", "tensile_strength": "Pa", "fracture_energy": "J/m²",
+_SI_UNIT = {"compressive_strength": "Pa", "young": "Pa", "tensile_strength": "Pa", "fracture_energy": "J/m²",
             "density": "kg/m³", "poisson": ""}
 
 
@@ -93,10 +94,15 @@ def expand_presets(data: dict, lines: dict, filename: str) -> list[str]:
                 if key not in rupture:
                     rupture[key] = values[key] / factors.get(_DIMENSION[key], 1.0)
                     derived.append(key)
+            if "shear_strength" not in rupture and "compressive_strength" not in rupture \
+                    and rupture.get("law", "mixed_mode") == "mixed_mode" \
+                    and rupture.get("values", "material") == "material":
+                # the specimen fails at f_cm (compression_calibration.py)
+                rupture["compressive_strength"] = fc
+                derived.append("compressive_strength")
         shown = ", ".join(f"{k} {_fmt(values[k], k)} ({_SOURCE[k]})" for k in derived)
         notes.append(f"materials.{name}: concrete of f_cm = {fcm / 1e6:.4g} MPa by the fib "
-                     f"Model Code 2010: {shown or 'every value given'}; its compressive "
-                     "strength itself is not modelled (no cap in compression yet)")
+                     f"Model Code 2010: {shown or 'every value given'}")
     return notes
 
 

@@ -36,6 +36,7 @@ DIMENSIONS: dict[tuple[type, str], str] = {
     (Rupture, "fracture_energy"): "energy/area",
     (Rupture, "tensile_strength"): "stress",
     (Rupture, "shear_strength"): "stress",
+    (Rupture, "compressive_strength"): "stress",
     (Rupture, "shear_fracture_energy"): "energy/area",
     (Group, "box"): "length",
     (GroupVelocity, "velocity"): "velocity",

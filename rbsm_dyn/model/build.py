@@ -14,7 +14,7 @@ from ..physics.poisson import build_poisson, empty_poisson
 from ..physics.rotation import matrix_to_quat, quat_matrix_np
 from .contact import build_contact, contact_setting
 from .core import IDX, Model
-from .laws import body_materials, law_slots, viscous_laws
+from .laws import body_materials, compression_notes, law_slots, viscous_laws
 from .loads import Amplitudes, body_groups, body_loads, constraints, interface_notes
 from .mesh_build import build_mesh
 from .springs import face_table, internal_springs, spring_arms, support_springs
@@ -34,7 +34,8 @@ def build_model(case, mesh=None):
     springs, spring_face, n_cut = _springs_and_faces(case, mesh, parts, body_part, body_rigid,
                                                      laws, rot0, bodies["body_pos0"])
     hist = Amplitudes()
-    notes = interface_notes(case, mesh)
+    notes = interface_notes(case, mesh) + compression_notes(case, parts, body_part,
+                                                            body_material, body_rigid)
     dof_kind, dof_value, dof_hist, ground_hist, ground_dir = constraints(case, mesh, groups,
                                                                          hist, notes)
     if case.plane is not None:

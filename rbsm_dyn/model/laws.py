@@ -6,6 +6,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..calibration import plane_stiffness_rule, stiffness_rule
+from ..compression_calibration import DEFAULT_RATIO, shear_ratio
 from ..fracture_calibration import fracture_ratios
 from ..physics.laws import (CONTACT_OFF, CRITERIA, N_PARAMS, P_COH, P_CRIT, P_EPSCR, P_FT,
                             P_GF, P_GS, P_MODEL, P_MU, P_RATE, P_RS, P_RUPT, P_SLOW, P_SY,
@@ -36,8 +37,10 @@ def material_law_row(mat, mesh_kind="voronoi", cell_size=None):
     A broken face is a contact with Coulomb friction `friction` (default 0).
     Material fracture values are mapped to spring values by the mesh kind's
     fracture calibration (fracture_calibration.py) unless `rupture.values:
-    spring`; the mixed-mode law's shear strength defaults to 2 f_t and its
-    mode-II energy to G_f (docs/case_file.md)."""
+    spring`; the mixed-mode law's shear strength defaults to 2 f_t, or is
+    the one whose lattice fails at `compressive_strength`
+    (compression_calibration.py), and its mode-II energy to G_f
+    (docs/case_file.md)."""
     row = elastic_law_row()
     y = mat.yield_
     if y is not None:
@@ -62,7 +65,12 @@ def material_law_row(mat, mesh_kind="voronoi", cell_size=None):
             row[P_RUPT] = RUPTURE_KINDS[r.law or "mixed_mode"]
             row[P_FT] = r.tensile_strength / f_t
             row[P_GF] = r.fracture_energy / g_f
-            ratio = 2.0 if r.shear_strength is None else r.shear_strength / r.tensile_strength
+            ratio = DEFAULT_RATIO
+            if r.shear_strength is not None:
+                ratio = r.shear_strength / r.tensile_strength
+            elif r.compressive_strength is not None:
+                # the ratio whose lattice fails at f_c (compression_calibration.py)
+                ratio, _ = shear_ratio(mesh_kind, r.compressive_strength, r.tensile_strength)
             row[P_RS] = ratio
             g_s = r.fracture_energy if r.shear_fracture_energy is None \
                 else r.shear_fracture_energy
@@ -72,6 +80,25 @@ def material_law_row(mat, mesh_kind="voronoi", cell_size=None):
                 row[P_SLOW] = np.sqrt(mat.density / mat.young)
     row[P_MU] = mat.friction or 0.0
     return row
+
+
+def compression_notes(case, parts, body_part, body_material, body_rigid):
+    """Notes on the compressive strengths a mesh cannot give (a Voronoi
+    lattice's reach, or a block or plane mesh: compression_calibration.py),
+    one per material and mesh kind that uses it."""
+    notes = []
+    for j, (name, mat) in enumerate(case.materials.items()):
+        r = mat.rupture
+        if r is None or r.compressive_strength is None or r.shear_strength is not None:
+            continue
+        used = np.unique(body_part[(body_material == j) & ~body_rigid])
+        kinds = sorted({parts[k].mesh.kind if case.plane is None else "plane_" + parts[k].mesh.kind
+                        for k in used})
+        for kind in kinds:
+            _, note = shear_ratio(kind, r.compressive_strength, r.tensile_strength)
+            if note:
+                notes.append(f"materials.{name}.rupture.compressive_strength: {note}")
+    return notes
 
 
 def viscous_row(mat):

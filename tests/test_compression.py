@@ -1,0 +1,90 @@
+"""Concrete by its compressive strength (issue 31 item 1, in part;
+compression_calibration.py): `rupture.compressive_strength` f_c, which
+`{model: concrete, fc}` fills in, sets the mixed-mode law's shear strength
+so that a Voronoi specimen under uniaxial compression fails at f_c.
+
+The specimen: a prism 40 × 40 × 80 mm (h = 2b, as a standard cylinder)
+between rigid frictionless platens, pushed at a strain rate of 2 /s (the
+peak comes after about 25 wave transits of the prism; the law has no rate
+effect unless `rate` is given), at 6 and 8 cells across: a different
+specimen (size, cells across, rate) from the 50 mm prisms the table was
+measured on."""
+import numpy as np
+import pytest
+
+from rbsm_dyn.__main__ import main
+from rbsm_dyn.case import load_case_text
+from rbsm_dyn.compression_calibration import (VORONOI_COMPRESSION, compression_specimen,
+                                              shear_ratio)
+
+FC = 40.0e6
+WIDTH = 0.04
+
+
+def test_the_preset_gives_its_compressive_strength():
+    """`{model: concrete, fc}` fills compressive_strength = f_cm (unless the
+    shear strength or the compressive strength is given)."""
+    text = compression_specimen(cell=0.01, width=WIDTH, fc=FC)
+    case = load_case_text(text)
+    assert case.materials["concrete"].rupture.compressive_strength == FC
+    given = load_case_text(text.replace(f"fc: {FC!r}}}",
+                                        f"fc: {FC!r}, rupture: {{shear_strength: 9.0e6}}}}"))
+    r = given.materials["concrete"].rupture
+    assert r.compressive_strength is None and r.shear_strength == 9.0e6
+
+
+def test_shear_ratio_inverts_the_table():
+    """Each measured point maps back to its ratio; beyond the lattice's
+    reach the ratio is the table's end and a note says what the specimen
+    will reach; a block mesh keeps 2 f_t, with a note."""
+    for r, c in VORONOI_COMPRESSION:
+        assert shear_ratio("voronoi", c * 3.0e6, 3.0e6) == (pytest.approx(r, rel=1e-12), None)
+    r, note = shear_ratio("voronoi", 20 * 3.0e6, 3.0e6)
+    assert r == VORONOI_COMPRESSION[-1, 0] and "above" in note and "MPa" in note
+    r, note = shear_ratio("blocks", FC, 3.0e6)
+    assert r == 2.0 and "blocks" in note
+
+
+ENERGY = "fracture_energy: 140.0, tensile_strength: 3.0e6, "
+
+
+@pytest.mark.parametrize("rupture, words", [
+    (ENERGY + "shear_strength: 9.0e6, compressive_strength: 40.0e6", ["not both"]),
+    (ENERGY + "compressive_strength: 40.0e6, values: spring", ["values: material"]),
+    (ENERGY + "compressive_strength: 40.0e6, law: tension", ["law tension"]),
+    ("strain: 1.0e-3, compressive_strength: 40.0e6", ["rupture strain"])])
+def test_bad_compressive_strength_is_refused(tmp_path, capsys, rupture, words):
+    """Exit 2 naming the key and why."""
+    text = compression_specimen(cell=0.01, width=WIDTH).replace(
+        f"{{model: concrete, fc: {FC!r}}}",
+        "{density: 2400, young: 34.0e9, poisson: 0.2, rupture: {" + rupture + "}}")
+    case = tmp_path / "bad.yaml"
+    case.write_text(text, encoding="utf-8")
+    assert main(["check", str(case)]) == 2
+    err = capsys.readouterr().err
+    assert "compressive_strength" in err
+    for w in words:
+        assert w in err
+
+
+@pytest.mark.parametrize("cell", [WIDTH / 6, WIDTH / 8])
+def test_uniaxial_compression_fails_at_fc(run_case, cell):
+    """The prism on frictionless platens fails at f_c within 10 % (the
+    issue's tolerance; the table's two sizes are 3-7 % apart), having
+    first loaded at the modulus E (within 15 %: platen contact and
+    the calibrated lattice's E); the energy balance closes within 1 % of
+    the work."""
+    h = run_case(compression_specimen(cell=cell, width=WIDTH, fc=FC, rate=2.0, frames=150))
+    ob = h.observables
+    stress = -np.asarray(ob["F"]) / WIDTH ** 2
+    strain = -np.asarray(ob["d"]) / (2 * WIDTH)
+    assert stress.max() == pytest.approx(FC, rel=0.10)
+    case = load_case_text(compression_specimen(cell=cell, width=WIDTH, fc=FC))
+    young = case.materials["concrete"].young
+    early = (stress > 0.2 * FC) & (stress < 0.5 * FC)
+    secant = np.median(stress[early] / strain[early])
+    assert secant == pytest.approx(young, rel=0.15)
+    assert stress[-1] < 0.2 * stress.max()              # it has failed
+    balance = (ob["kinetic"] + ob["strain"] + ob["plastic"] + ob["fracture"] + ob["damping"]
+               - ob["external_work"])
+    assert np.abs(balance).max() <= 1e-2 * ob["external_work"].max()
