@@ -18,6 +18,7 @@ CASES = sorted((Path(__file__).parent.parent / "cases").glob("*.yaml"))
 RUN_IN_FULL = {
     "bar_wave": "test_dynamics.py::test_D1_bar_wave_arrival",
     "branching_glass": "test_fracture_cases.py (glass_run)",
+    "cube_compression": "test_compression.py::test_cube_case_is_stronger_than_the_cylinder",
     "brazilian_disc": "test_case_answers.py (brazilian)",
     "dynamic_crack": "test_fracture.py",
     "impact_plate": "test_contact_cases.py (impact)",

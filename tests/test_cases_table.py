@@ -150,6 +150,14 @@ TABLE: dict[str, Check] = {
         ("tests/test_viscous.py::test_creep_beam_case",),
         reads_case=True,
         note="the case file itself: w(0) within 2 % of Timoshenko's"),
+    "cube_compression.yaml": Check(
+        "the cube on platens of friction 0.2 fails at 1.20-1.25 f_c (EN 206, Table 12); "
+        "the platens hold its ends",
+        ("tests/test_compression.py::test_cube_case_is_stronger_than_the_cylinder",),
+        reads_case=True,
+        note="the case file itself: the peak within 10 % of EN 206's ratio band, fewer "
+             "broken spring points near the platens than in the middle 150 µs after the "
+             "peak; the frictionless variant's figures in the header are not asserted"),
     "masonry_wall_quake.yaml": Check(
         "stands below g b/h = 0.6 g, rocks above it (Housner 1963); rocks under the "
         "record at 1 g",
