@@ -73,7 +73,7 @@ def shear_ratio(mesh_kind, compressive_strength, tensile_strength):
 
 
 def compression_specimen(*, cell, width=0.05, height=None, fc=40.0e6, friction=0.0, seed=1,
-                         rate=0.5, confinement=0.0, extra="", frames=300):
+                         rate=0.5, confinement=0.0, extra="", frames=300, uniform=False):
     """YAML text of the calibration specimen (docs/calibration.md,
     "Compression"): a Voronoi prism width × width × height (2 × width by
     default) of `{model: concrete, fc}` (+ `extra` inside the material's
@@ -84,13 +84,27 @@ def compression_specimen(*, cell, width=0.05, height=None, fc=40.0e6, friction=0
     lateral pressure on the four sides ramped over the same time.  The run
     ends at a strain of 0.3 % (0.6 % confined).  Probes: F (the top
     platen's z reaction, negative in compression) and d (its z
-    displacement)."""
+    displacement).  `uniform`: no ramp: the top platen moves from the
+    start and every cell starts at the velocity of a uniform strain rate
+    (−rate z, in bands one cell thick), so that no wave runs (the
+    loading rate's tests)."""
     height = 2.0 * width if height is None else height
     v = rate * height
     ramp = 1.0e-4 / rate
     t_end = (6.0e-3 if confinement else 3.0e-3) / rate
     b, L, t = width, height, 0.01 * width / 0.05
     loads = ""
+    history = f"[[0, 0], [{ramp!r}, 1], [1, 1]]"
+    initial = ""
+    if uniform:
+        history = "[[0, 1], [1, 1]]"
+        band = cell
+        n = int(np.ceil(height / band))
+        groups = "".join(f"  z{i}: {{box: [[-1, -1, {i * band!r}], [1, 1, {(i + 1) * band!r}]]}}\n"
+                         for i in range(n))
+        initial = "groups:\n" + groups + "initial:\n" + "".join(
+            f"  - {{group: z{i}, velocity: [0, 0, {-rate * (i + 0.5) * band!r}]}}\n"
+            for i in range(n)) + f"  - {{group: top, velocity: [0, 0, {-v!r}]}}\n"
     if confinement:
         loads = "loads:\n" + "".join(
             f"  - {{surface: spec.{w}, pressure: {confinement!r}, history: [[0, 0], "
@@ -119,8 +133,8 @@ materials:
 boundary:
   - {{group: bot, fix: all}}
   - {{group: top, fix: [x, y, rx, ry, rz]}}
-  - {{group: top, velocity: [null, null, {-v!r}], history: [[0, 0], [{ramp!r}, 1], [1, 1]]}}
-{loads}solver: {{mode: dynamic, end_time: {t_end!r}}}
+  - {{group: top, velocity: [null, null, {-v!r}], history: {history}}}
+{initial}{loads}solver: {{mode: dynamic, end_time: {t_end!r}}}
 output:
   interval: {t_end / frames!r}
   probes:

@@ -43,8 +43,9 @@ from .laws import (BROKEN, CONTACT, ELASTIC, P_COH, P_CRIT, P_EPSCR, P_FT, P_GF,
                    P_MU, P_RATE, P_RS, P_RUPT, P_SLOW, P_SY, P_TANPHI, P_TENSION, YIELDED)
 from .laws.contact import CONTACT_OFF, contact_traction
 from .laws.plastic import CONTINUUM, plastic_return
-from .laws.rupture import (MIXED, SOFTENING, STRAIN, equivalent_strain, fib2010_tension_dif,
-                           mixed_mode_damage, smoothed_rate, softening_damage)
+from .laws.rupture import (MIXED, SOFTENING, STRAIN, equivalent_strain,
+                           fib2010_compression_dif, fib2010_tension_dif, mixed_mode_damage,
+                           smoothed_rate, softening_damage)
 from .springs import (add_wrench, clear_part, flush_a, gap_and_scaled_frame, material_points,
                       mid_increment, part_range, scaled_frame)
 
@@ -149,11 +150,16 @@ def spring_law(s, f, dn, ds, dt, turned, area, kn, ks, kt, face_h, face_law, law
             # one tests a loop-invariant length, not the law's row)
             rated = spring_rate.shape[0] > 0 and law_params[li, P_RATE] > 0.0
             loading = rated and dmg == 0.0
+            cfac = 1.0
             if rated:
-                strength *= fib2010_tension_dif(spring_rate[s])
+                # fib Model Code 2010 §5.1.11.1: the tensile factor on the
+                # envelope, the compressive one in compression (rupture.py)
+                tdif = fib2010_tension_dif(spring_rate[s])
+                strength *= tdif
+                cfac = fib2010_compression_dif(spring_rate[s]) / tdif
             dnew, w = mixed_mode_damage(en, es, et, kn / area, ks / area, kt / area,
                                         strength, law_params[li, P_GF],
-                                        law_params[li, P_RS], law_params[li, P_GS])
+                                        law_params[li, P_RS], law_params[li, P_GS], cfac)
             if dnew > dmg:
                 # Y = −∂U/∂D, U = ½ (1 − D)(kn ⟨en⟩² + ks es² + kt et²) + ½ kn ⟨−en⟩²,
                 # taken at the product of this step's and the last step's
