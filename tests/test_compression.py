@@ -116,3 +116,19 @@ def test_cube_case_is_stronger_than_the_cylinder(run_case):
     balance = (ob["kinetic"] + ob["strain"] + ob["plastic"] + ob["fracture"] + ob["damping"]
                - ob["external_work"])
     assert np.abs(balance).max() <= 1e-2 * ob["external_work"].max()
+
+
+def test_check_prints_the_derived_shear_strength_and_rate_factors(tmp_path, capsys):
+    """`check` prints the shear strength f_c gives on Voronoi cells (the
+    table's ratio at f_c/f_t) and, with `rate: fib2010`, the Model Code's
+    factors (1.28 in tension and 1.16 in compression at 1 /s)."""
+    case = tmp_path / "c.yaml"
+    case.write_text(compression_specimen(cell=0.01, width=WIDTH,
+                                         extra=", rupture: {rate: fib2010}"), encoding="utf-8")
+    assert main(["check", str(case)]) == 0
+    out = capsys.readouterr().out
+    ft = load_case_text(compression_specimen(cell=0.01)).materials["concrete"] \
+        .rupture.tensile_strength
+    r, _ = shear_ratio("voronoi", FC, ft)
+    assert f"gives shear_strength {r:.3g} f_t" in out
+    assert "1 /s: × 1.28 in tension, × 1.16 in compression" in out

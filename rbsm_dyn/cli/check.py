@@ -14,7 +14,8 @@ def main(args, path):
         return ready
     model, step = ready.model, ready.step
     print(f"{path}: ok ({model.n_bodies} bodies, {model.n_springs} spring points)")
-    for note in case.material_notes:
+    from ..model.laws import law_notes
+    for note in case.material_notes + law_notes(case):
         print(f"  {note}")
     if case.solver.mode == "static":
         how = ("the default for this case" if case.solver._method_default else "given")

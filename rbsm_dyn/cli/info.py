@@ -30,7 +30,8 @@ def _info(case, model, threads, out=None):
     print(f"case        {case.name} ({case.solver.mode}{plane})")
     print(f"bodies      {e.n_bodies}")
     print(f"springs     {e.n_springs} ({e.n_supports} supports, {model.n_cut} cut)")
-    for k, note in enumerate(case.material_notes):
+    from ..model.laws import law_notes
+    for k, note in enumerate(case.material_notes + law_notes(case)):
         print(f"{'materials' if k == 0 else '':<12}{note}")
     for k, line in enumerate(_selections(case, model)):
         print(f"{'selects' if k == 0 else '':<12}{line}")

@@ -101,6 +101,40 @@ def compression_notes(case, parts, body_part, body_material, body_rigid):
     return notes
 
 
+def law_notes(case):
+    """What `check` and `info` print of the laws' derived values: the shear
+    strength a compressive strength gives on Voronoi cells
+    (compression_calibration.py) and the loading-rate factors of `rate:
+    fib2010` at a few strain rates (physics/laws/rupture.py)."""
+    from ..case import scene_parts
+    from ..physics.laws.rupture import fib2010_compression_dif, fib2010_tension_dif
+    notes = []
+    names = list(case.materials)
+    parts = scene_parts(case)
+    for name, mat in case.materials.items():
+        r = mat.rupture
+        if r is None or r.strain is not None:
+            continue
+        kinds = {p.mesh.kind for p in parts
+                 if (p.material or names[0]) == name or case.groups}
+        if r.compressive_strength is not None and r.shear_strength is None \
+                and "voronoi" in kinds and case.plane is None:
+            ratio, _ = shear_ratio("voronoi", r.compressive_strength, r.tensile_strength)
+            notes.append(f"materials.{name}: compressive_strength {r.compressive_strength / 1e6:.4g}"
+                         f" MPa = {r.compressive_strength / r.tensile_strength:.3g} f_t gives "
+                         f"shear_strength {ratio:.3g} f_t = "
+                         f"{ratio * r.tensile_strength / 1e6:.4g} MPa on Voronoi cells "
+                         "(docs/calibration.md, \"Compression\")")
+        if r.rate is not None:
+            rates = (1.0, 10.0, 50.0)
+            shown = ", ".join(f"{x:g} /s: × {fib2010_tension_dif.py_func(x):.3g} in tension, "
+                              f"× {fib2010_compression_dif.py_func(x):.3g} in compression"
+                              for x in rates)
+            notes.append(f"materials.{name}: rate {r.rate} raises the strength at a strain rate "
+                         f"of {shown} (fib Model Code 2010 §5.1.11.1)")
+    return notes
+
+
 def viscous_row(mat):
     """(τ_d [s], [(g_i, τ_i [s]), ...]) of a material (physics/viscous.py):
     Kelvin's dashpot time and the Maxwell branches' shares g_i = E_i/E of
