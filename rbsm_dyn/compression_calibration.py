@@ -100,8 +100,8 @@ def compression_specimen(*, cell, width=0.05, height=None, fc=40.0e6, friction=0
         history = "[[0, 1], [1, 1]]"
         band = cell
         n = int(np.ceil(height / band))
-        groups = "".join(f"  z{i}: {{box: [[-1, -1, {i * band!r}], [1, 1, {(i + 1) * band!r}]]}}\n"
-                         for i in range(n))
+        groups = "".join(f"  z{i}: {{box: [[-1, -1, {i * band!r}], "
+                         f"[1, 1, {(i + 1) * band!r}]]}}\n" for i in range(n))
         initial = "groups:\n" + groups + "initial:\n" + "".join(
             f"  - {{group: z{i}, velocity: [0, 0, {-rate * (i + 0.5) * band!r}]}}\n"
             for i in range(n)) + f"  - {{group: top, velocity: [0, 0, {-v!r}]}}\n"

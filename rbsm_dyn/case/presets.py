@@ -24,9 +24,10 @@ DENSITY = 2400.0        # kg/m³, plain normal-weight concrete (taken, not the M
 
 def concrete(fcm):
     """{young [Pa], poisson, tensile_strength [Pa], fracture_energy [J/m²],
-    density [kg/m³], compressive_strength [Pa] (f_cm itself)} of a concrete of mean cylinder strength fcm [Pa] (fib
-    Model Code 2010): E_ci = E_c0 α_E (f_cm/10)^(1/3) (eq. 5.1-21, the
-    tangent modulus at the origin); f_ctm = 0.3 f_ck^(2/3) up to C50
+    density [kg/m³], compressive_strength [Pa] (f_cm itself)} of a concrete
+    of mean cylinder strength fcm [Pa] (fib Model Code 2010): E_ci = E_c0
+    α_E (f_cm/10)^(1/3) (eq. 5.1-21, the tangent modulus at the origin);
+    f_ctm = 0.3 f_ck^(2/3) up to C50
     (eq. 5.1-3a), 2.12 ln(1 + 0.1 f_cm) above (eq. 5.1-3b); G_F = 73
     f_cm^0.18 (eq. 5.1-9); ν = 0.2 (§5.1.7.3); density 2400 kg/m³ (a
     normal-weight concrete's, taken)."""
@@ -43,7 +44,8 @@ _SOURCE = {"compressive_strength": "f_cm, through the shear strength",
            "fracture_energy": "eq. 5.1-9", "density": "normal-weight concrete"}
 _DIMENSION = {"compressive_strength": "stress", "young": "stress", "tensile_strength": "stress",
               "fracture_energy": "energy/area", "density": "density"}
-_SI_UNIT = {"compressive_strength": "Pa", "young": "Pa", "tensile_strength": "Pa", "fracture_energy": "J/m²",
+_SI_UNIT = {"compressive_strength": "Pa", "young": "Pa", "tensile_strength": "Pa",
+            "fracture_energy": "J/m²",
             "density": "kg/m³", "poisson": ""}
 
 

@@ -92,8 +92,8 @@ def compression_notes(case, parts, body_part, body_material, body_rigid):
         if r is None or r.compressive_strength is None or r.shear_strength is not None:
             continue
         used = np.unique(body_part[(body_material == j) & ~body_rigid])
-        kinds = sorted({parts[k].mesh.kind if case.plane is None else "plane_" + parts[k].mesh.kind
-                        for k in used})
+        prefix = "" if case.plane is None else "plane_"
+        kinds = sorted({prefix + parts[k].mesh.kind for k in used})
         for kind in kinds:
             _, note = shear_ratio(kind, r.compressive_strength, r.tensile_strength)
             if note:
@@ -120,8 +120,9 @@ def law_notes(case):
         if r.compressive_strength is not None and r.shear_strength is None \
                 and "voronoi" in kinds and case.plane is None:
             ratio, _ = shear_ratio("voronoi", r.compressive_strength, r.tensile_strength)
-            notes.append(f"materials.{name}: compressive_strength {r.compressive_strength / 1e6:.4g}"
-                         f" MPa = {r.compressive_strength / r.tensile_strength:.3g} f_t gives "
+            fc = r.compressive_strength
+            notes.append(f"materials.{name}: compressive_strength {fc / 1e6:.4g}"
+                         f" MPa = {fc / r.tensile_strength:.3g} f_t gives "
                          f"shear_strength {ratio:.3g} f_t = "
                          f"{ratio * r.tensile_strength / 1e6:.4g} MPa on Voronoi cells "
                          "(docs/calibration.md, \"Compression\")")
