@@ -10,8 +10,8 @@ PKG = Path(__file__).resolve().parent.parent / "rbsm_dyn"
 #: the layers, lowest first: a unit may import its own modules and those of
 #: lower layers only (docs/modules.md draws the same table)
 LAYERS = [
-    {"_version", "partition", "calibration", "fracture_calibration", "records", "threads",
-     "_kernel_cache"},
+    {"_version", "partition", "calibration", "fracture_calibration", "compression_calibration",
+     "records", "threads", "_kernel_cache"},
     {"physics"},              # kernels only
     {"mesh"},
     {"geometry"},
