@@ -53,17 +53,24 @@ DIF_C_KNEE = 30.0              # [1/s] where the exponent changes from 0.014 to 
 
 
 @nb.njit(inline="always", **JIT)
+def _model_code_dif(rate, rate0, knee, power, coeff):
+    """The Model Code's two-branch factor (§5.1.11.1): (ε̇/ε̇0)^power up to
+    `knee`, coeff (ε̇/ε̇0)^(1/3) above, 1 at and below ε̇0 = rate0."""
+    if rate <= rate0:
+        return 1.0
+    x = rate / rate0
+    if rate <= knee:
+        return x ** power
+    return coeff * x ** (1.0 / 3.0)
+
+
+@nb.njit(inline="always", **JIT)
 def fib2010_tension_dif(rate):
     """f_ct,imp/f_ctm at the strain rate `rate` [1/s] (fib Model Code 2010,
     §5.1.11.1): (ε̇/ε̇0)^0.018 up to 10 /s, 0.0062 (ε̇/ε̇0)^(1/3)
     above (the two meet at 10 /s within 0.1 %), ε̇0 = 1e-6 /s; 1 at and
     below ε̇0 (the strength the user gives is the quasi-static one)."""
-    if rate <= DIF_RATE0:
-        return 1.0
-    x = rate / DIF_RATE0
-    if rate <= DIF_KNEE:
-        return x ** 0.018
-    return 0.0062 * x ** (1.0 / 3.0)
+    return _model_code_dif(rate, DIF_RATE0, DIF_KNEE, 0.018, 0.0062)
 
 
 @nb.njit(inline="always", **JIT)
@@ -72,12 +79,7 @@ def fib2010_compression_dif(rate):
     §5.1.11.1): (ε̇/ε̇_c0)^0.014 up to 30 /s, 0.012 (ε̇/ε̇_c0)^(1/3)
     above (they meet at 30 /s within 1.2 %), ε̇_c0 = 30e-6 /s; 1 at and
     below ε̇_c0."""
-    if rate <= DIF_C_RATE0:
-        return 1.0
-    x = rate / DIF_C_RATE0
-    if rate <= DIF_C_KNEE:
-        return x ** 0.014
-    return 0.012 * x ** (1.0 / 3.0)
+    return _model_code_dif(rate, DIF_C_RATE0, DIF_C_KNEE, 0.014, 0.012)
 
 
 @nb.njit(inline="always", **JIT)
