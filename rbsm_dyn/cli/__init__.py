@@ -89,4 +89,40 @@ def _main(argv=None):
     if problem:
         print(f"rbsm_dyn: {problem}", file=sys.stderr)
         return 2
+    if command == "run":
+        from .. import mpi_env
+        if mpi_env.env_size() > 1:
+            return _run_ranks(args, path)
     return {"run": run, "check": check, "info": info}[command].main(args, path)
+
+
+def _run_ranks(args, path):
+    """A run launched on several MPI processes (solvers/distributed.py):
+    rank 0 runs the command as one process does and leads the stepping,
+    the other ranks step their shares until it says stop; every rank exits
+    with rank 0's status."""
+    import signal
+    from .. import mpi_env
+    # the node's cores shared by its ranks (before Numba is imported)
+    os.environ.setdefault("NUMBA_NUM_THREADS", str(mpi_env.rank_threads()))
+    try:
+        comm = mpi_env.world()
+    except ImportError as exc:
+        print(f"rbsm_dyn: {exc}", file=sys.stderr)
+        return 2
+    if comm is None:
+        return run.main(args, path)
+    if comm.rank > 0:
+        # rank 0 alone answers Ctrl-C and SIGTERM (a checkpoint, then stop)
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)
+        from ..solvers.distributed import worker
+        return worker(comm)
+    args.mpi = comm
+    code = 1
+    try:
+        code = run.main(args, path)
+        return code
+    finally:
+        from ..solvers.distributed import stop_workers
+        stop_workers(comm, code)

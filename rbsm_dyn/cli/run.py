@@ -108,6 +108,13 @@ def _run(case, model, args, threads, lock, notice=None):
     from ..solvers import checkpoint, explicit
     from ..solvers.output import Recorder
     out = args.out or case.output.file
+    comm = getattr(args, "mpi", None)
+    if comm is not None:
+        from ..solvers.distributed import refusal
+        why = refusal(case, model)
+        if why:
+            print(f"rbsm_dyn: mpirun -n {comm.size}: {why}", file=sys.stderr)
+            return 2
     extra = _extra_observables(case)
     restart = None
     if args.restart:
@@ -142,16 +149,21 @@ def _run(case, model, args, threads, lock, notice=None):
     t0 = time.perf_counter()
     try:
         if case.solver.mode == "dynamic":
-            governor = None
-            if args.threads is None and getattr(case.solver, "threads", None) is None:
+            governor = stepper = None
+            if comm is not None:
+                from ..solvers.distributed import Leader
+                stepper = Leader(comm).advance
+            elif args.threads is None and getattr(case.solver, "threads", None) is None:
                 # the default count, kept right while the run steps (threads.py)
                 import numba
                 from ..threads import Governor
                 governor = Governor(model.n_springs, numba.config.NUMBA_NUM_THREADS)
             res = explicit.run(case, model, rec, max_steps=args.max_steps, progress=progress,
-                               restart=restart, governor=governor)
+                               restart=restart, governor=governor, stepper=stepper)
             summary = (f"{res['steps']} steps, dt = {res['dt']:.4g} s "
                        f"(estimate {res['dt_estimate']:.4g} s)")
+            if comm is not None:
+                summary += f" on {comm.size} MPI processes"
             if res.get("dt_changes"):
                 summary += (f", reduced {res['dt_changes']} times to {res['dt_final']:.4g} s "
                             "as the springs' gaps grew")

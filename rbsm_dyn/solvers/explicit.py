@@ -290,11 +290,14 @@ def follower_half_step_work(model, state):
 
 
 def run(case, model, recorder, *, max_steps=None, progress=None, chunk_steps=None,
-        restart=None, governor=None):
+        restart=None, governor=None, stepper=None):
     """Run a dynamic case, writing frames through `recorder`.
 
     governor: a threads.Governor that re-picks the default thread count
     between chunks of steps (None: the count stays).
+    stepper: what advances the state by a chunk of steps, advance's
+    signature (default advance; solvers/distributed.py Leader.advance: over
+    MPI ranks).
 
     restart: (State, checkpoint data) from checkpoint.load_for_restart: go on
     from that state (its frames are in the recorder's file already).
@@ -387,7 +390,8 @@ def run(case, model, recorder, *, max_steps=None, progress=None, chunk_steps=Non
         adapt = StepAdapter(model) if adapts(model) and np.isfinite(est) else None
         start_step = state.step
         _loop(model, state, recorder, progress, record, energy_runaway, ckpt, guard, e0,
-              schedule, chunk_steps, (alpha, local), v_limit, est, adapt, governor)
+              schedule, chunk_steps, (alpha, local), v_limit, est, adapt, governor,
+              stepper or advance)
         if restart is None or state.step != start_step:
             # (a restart that has no step left to make -- killed after its
             # end-of-run checkpoint, before "completed" -- does not write that
@@ -547,7 +551,8 @@ def _contact_hint(model, state):
 
 
 def _loop(model, state, recorder, progress, record, energy_runaway, ckpt, guard, e0,
-          schedule, chunk_steps, damping, v_limit, est, adapt=None, governor=None):
+          schedule, chunk_steps, damping, v_limit, est, adapt=None, governor=None,
+          stepper=advance):
     obs = {}
     over = 0                  # output frames in a row over the energy bound
     # the passes, once per run: for the most threads the run may take
@@ -565,7 +570,7 @@ def _loop(model, state, recorder, progress, record, energy_runaway, ckpt, guard,
             # chunk short enough that none moves a quarter skin in it
             rebuild(model, state)
             n = min(n, contact_chunk(model, state, dt, model.gravity))
-        advance(model, state, n, *damping, options=opt)
+        stepper(model, state, n, *damping, options=opt)
         if model.contact is not None and not state.contact.stiff_warning:
             # the stable step with the contacts the chunk ended with
             state.contact.stiff_warning = stiffness_check(model, state, dt, est)
