@@ -46,6 +46,11 @@ BODY_FIELDS_N = ("body_work", "body_damp", "body_reaction")
 SPRING_FIELDS = ("spring_state", "spring_dp", "spring_kappa", "spring_dmg", "spring_wp",
                  "spring_wf", "spring_rate")
 _TAG = 17
+_CMD = 18
+#: a waiting rank polls for rank 0's next command at most this often [s]
+#: (MPI's blocking calls spin a core: a rank waiting through rank 0's
+#: output frames would keep a user's core busy)
+POLL = 1.0e-3
 
 
 def refusal(case, model):
@@ -206,8 +211,8 @@ class Leader:
         self.figures = summary(doms, model.n_springs)
         self.figures["method"] = self.method
         opt = Options.of(model)
-        comm.bcast(("setup", None), root=0)
         for q in range(1, comm.size):
+            comm.send(("setup", None), dest=q, tag=_CMD)
             comm.send(_package(model, doms[q], opt, state), dest=q, tag=_TAG)
         self.local = LocalRun(comm, _package(model, doms[0], opt, state))
         self._mark(state)
@@ -223,7 +228,9 @@ class Leader:
         send = self.synced != (state.step, state.dt, state.t0)
         stepping = Stepping(float(state.dt), float(damping_alpha), float(damping_local),
                             float(state.t0))
-        self.comm.bcast(("advance", (int(n_steps), int(state.step), stepping, send)), root=0)
+        for q in range(1, self.comm.size):
+            self.comm.send(("advance", (int(n_steps), int(state.step), stepping, send)),
+                           dest=q, tag=_CMD)
         if send:
             rows = [state_rows(state, d, model.n_bodies) for d in self.doms]
             self.local.load(self.comm.scatter(rows, root=0))
@@ -245,7 +252,22 @@ class Leader:
 
 def stop_workers(comm, code):
     """Rank 0's last word to the other ranks (whether or not a run started)."""
-    comm.bcast(("stop", int(code)), root=0)
+    for q in range(1, comm.size):
+        comm.send(("stop", int(code)), dest=q, tag=_CMD)
+
+
+def _command(comm):
+    """Rank 0's next command, waited for without spinning: polled with a
+    sleep that doubles from 20 µs to POLL."""
+    import time
+    req = comm.irecv(source=0, tag=_CMD)
+    nap = 2.0e-5
+    while True:
+        done, msg = req.test()
+        if done:
+            return msg
+        time.sleep(nap)
+        nap = min(2.0 * nap, POLL)
 
 
 def worker(comm):
@@ -253,7 +275,7 @@ def worker(comm):
     exit status rank 0 gives."""
     local = None
     while True:
-        cmd, arg = comm.bcast(None, root=0)
+        cmd, arg = _command(comm)
         if cmd == "stop":
             return arg
         if cmd == "setup":

