@@ -70,14 +70,18 @@ def main():
         from rbsm_dyn.solvers.distributed import GHOST_WIDTH, Leader
         leader = Leader(comm, a.method)
         leader.advance(model, fresh(), 1)          # setup, compile or load
+        leader.seconds(reset=True)
         tp, st = timed(leader.advance)
+        split = leader.seconds()
+        t_x = leader.exchange_seconds(200)
         f = leader.figures
         same = all(np.array_equal(getattr(ref, k), getattr(st, k)) for k in
                    ("body_pos", "body_quat", "body_vel", "body_angmom", "body_work"))
         line += (f" P={P} method={f['method']} ms_per_step={tp * 1e3:.2f} "
                  f"efficiency={t1 / (P * tp):.2f} duplicated={f['duplicated']:.3f} "
                  f"imbalance={f['imbalance']:.3f} ghosts_max={f['ghosts_max']} "
-                 f"bytes_per_step={f['exchanged'] * GHOST_WIDTH * 8} bitwise={'yes' if same else 'NO'}")
+                 f"bytes_per_step={f['exchanged'] * GHOST_WIDTH * 8} "
+                 f"exchange_us={t_x * 1e6:.0f} step_exchange_s_per_rank={split} bitwise={'yes' if same else 'NO'}")
         from rbsm_dyn.solvers.distributed import stop_workers
         stop_workers(comm, 0)
     print(line, flush=True)

@@ -28,6 +28,8 @@ between cells, the Poisson correction, continuum yield, viscous springs,
 plane models, and the static, linear and modal solvers.  Rank 0 builds and
 holds the whole model (the distributed build of DESIGN.md §10 is to come).
 """
+import time
+
 import numpy as np
 
 from ..physics.arrays import Bodies, BodyState, Loads, SpringHistory, Springs, Stepping
@@ -136,6 +138,8 @@ class LocalRun:
         self.send = {q: (ids, np.empty((len(ids), GHOST_WIDTH))) for q, ids in self.dom.send.items()}
         self.recv = {q: (ids, np.empty((len(ids), GHOST_WIDTH))) for q, ids in self.dom.recv.items()}
         self.n_local = n
+        #: [s] spent stepping and in the ghost exchange (waits included)
+        self.seconds = [0.0, 0.0]
 
     def load(self, rows):
         """Take these rows (state_rows) as the local state."""
@@ -145,10 +149,15 @@ class LocalRun:
     def steps(self, n, step0, stepping):
         """n explicit steps from step0, the ghosts traded after each."""
         par = parallel_arg(self.options)
+        clock = time.perf_counter
         for k in range(n):
+            t0 = clock()
             run_dynamic(1, step0 + k, stepping, self.bodies, self.springs, self.loads, self.bs,
                         self.hist, None, None, None, par)
+            t1 = clock()
             self.exchange()
+            self.seconds[0] += t1 - t0
+            self.seconds[1] += clock() - t1
         return step0 + n
 
     def exchange(self):
@@ -217,6 +226,26 @@ class Leader:
         self.local = LocalRun(comm, _package(model, doms[0], opt, state))
         self._mark(state)
 
+    def seconds(self, reset=False):
+        """[(stepping, exchange) s] of every rank since its start or the
+        last reset (then zeroed)."""
+        for q in range(1, self.comm.size):
+            self.comm.send(("seconds", reset), dest=q, tag=_CMD)
+        got = self.comm.gather(tuple(self.local.seconds), root=0)
+        if reset:
+            self.local.seconds[:] = [0.0, 0.0]
+        return [tuple(round(x, 3) for x in g) for g in got]
+
+    def exchange_seconds(self, k=100):
+        """[s] of one ghost exchange alone, the mean of k on every rank
+        (benchmarks/mpi_scaling.py)."""
+        for q in range(1, self.comm.size):
+            self.comm.send(("exchange", k), dest=q, tag=_CMD)
+        t0 = time.perf_counter()
+        for _ in range(k):
+            self.local.exchange()
+        return (time.perf_counter() - t0) / k
+
     def _mark(self, state):
         self.synced = (state.step, state.dt, state.t0)
 
@@ -278,7 +307,14 @@ def worker(comm):
         cmd, arg = _command(comm)
         if cmd == "stop":
             return arg
-        if cmd == "setup":
+        if cmd == "exchange":
+            for _ in range(arg):
+                local.exchange()
+        elif cmd == "seconds":
+            comm.gather(tuple(local.seconds), root=0)
+            if arg:
+                local.seconds[:] = [0.0, 0.0]
+        elif cmd == "setup":
             local = LocalRun(comm, comm.recv(source=0, tag=_TAG))
         elif cmd == "advance":
             n, step0, stepping, send = arg
