@@ -117,7 +117,13 @@ def _run_ranks(args, path):
         signal.signal(signal.SIGINT, signal.SIG_IGN)
         signal.signal(signal.SIGTERM, signal.SIG_IGN)
         from ..solvers.distributed import worker
-        return worker(comm)
+        try:
+            return worker(comm)
+        except BaseException:
+            # rank 0 would wait for this rank for ever: end the job
+            import traceback
+            traceback.print_exc()
+            comm.Abort(1)
     args.mpi = comm
     code = 1
     try:
