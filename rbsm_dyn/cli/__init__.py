@@ -103,8 +103,12 @@ def _run_ranks(args, path):
     with rank 0's status."""
     import signal
     from .. import mpi_env
-    # the node's cores shared by its ranks (before Numba is imported)
-    os.environ.setdefault("NUMBA_NUM_THREADS", str(mpi_env.rank_threads()))
+    # the node's cores shared by its ranks, or --threads (before Numba is
+    # imported: its pool's size); rank 0 picks the count as one process
+    # does and the other ranks take rank 0's (solvers/distributed.py)
+    have = os.environ.get("NUMBA_NUM_THREADS", "")
+    want = max(args.threads or 0, int(have) if have.isdigit() else 0)
+    os.environ["NUMBA_NUM_THREADS"] = str(want or mpi_env.rank_threads())
     try:
         comm = mpi_env.world()
     except ImportError as exc:

@@ -122,6 +122,9 @@ class LocalRun:
         self.dom = pkg["domain"]
         self.bodies, self.springs, self.loads = pkg["arrays"]
         self.options = pkg["options"]
+        import numba
+        # rank 0's thread count (its --threads, solver.threads or default)
+        numba.set_num_threads(max(1, min(pkg["threads"], numba.config.NUMBA_NUM_THREADS)))
         n = self.dom.n_local
         st = {f: np.zeros_like(x) for f, x in pkg["state"].items()}
         st["spring_force"] = np.zeros((len(self.dom.springs), 3))
@@ -194,7 +197,9 @@ def _package(model, dom, options, state):
     cells = {f: getattr(state, f) for f in SpringHistory._fields if f.startswith("cell_")}
     opt = Options(inelastic=options.inelastic, poisson=False, contact=False,
                   parallel=options.parallel and len(dom.springs) > 0, viscous=False)
+    import numba
     return {"domain": dom, "arrays": local_arrays(model, dom), "options": opt,
+            "threads": numba.get_num_threads(),
             "state": state_rows(state, dom, model.n_bodies),
             "cells": {f: x[:0] for f, x in cells.items()}}
 
