@@ -24,17 +24,17 @@ After rank 0 has changed the state between chunks (the start, a restart,
 a change of the step) the next chunk first sends each rank its rows.
 
 Not distributed yet (refused with P > 1, naming the reason): contact
-between cells, the Poisson correction, continuum yield, viscous springs,
-plane models, and the static, linear and modal solvers.  Rank 0 builds and
+between cells, the Poisson correction, continuum yield, plane models, and the static, linear and modal solvers.  Rank 0 builds and
 holds the whole model (the distributed build of DESIGN.md §10 is to come).
 """
 import time
 
 import numpy as np
 
-from ..physics.arrays import Bodies, BodyState, Loads, SpringHistory, Springs, Stepping
+from ..physics.arrays import (Bodies, BodyState, Loads, SpringHistory, Springs, Stepping,
+                              ViscousSprings)
 from ..physics.integrate import run_dynamic
-from .passes import Options, model_arrays, parallel_arg
+from .passes import VISCOUS_STATE, Options, model_arrays, parallel_arg, viscous_springs
 
 #: the rows a ghost needs from its owner each step: what the spring passes
 #: read of a body (physics/springs.py material_points, mid_increment)
@@ -46,7 +46,7 @@ BODY_FIELDS = ("body_pos", "body_quat", "body_vel", "body_angmom", "body_rot", "
 BODY_FIELDS_N = ("body_work", "body_damp", "body_reaction")
 #: the spring history's per-spring-point arrays (length 0 when unused)
 SPRING_FIELDS = ("spring_state", "spring_dp", "spring_kappa", "spring_dmg", "spring_wp",
-                 "spring_wf", "spring_rate")
+                 "spring_wf", "spring_rate") + VISCOUS_STATE
 _TAG = 17
 _CMD = 18
 #: a waiting rank polls for rank 0's next command at most this often [s]
@@ -65,7 +65,6 @@ def refusal(case, model):
     why = [(model.contact is not None, "contact (contact between cells)"),
            (bool(model.poisson_on), "the Poisson correction (materials' poisson)"),
            (model.cell_ivol.size > 0, "continuum yield (yield.model: continuum)"),
-           (bool(model.viscous), "viscous springs (materials' viscosity)"),
            (bool(model.plane), "a plane model (plane)")]
     got = [w for on, w in why if on]
     if got:
@@ -149,14 +148,21 @@ class LocalRun:
         for f, x in rows.items():
             np.copyto(self.st[f], x)
 
-    def steps(self, n, step0, stepping):
-        """n explicit steps from step0, the ghosts traded after each."""
+    def steps(self, n, step0, stepping, laws=None):
+        """n explicit steps from step0, the ghosts traded after each;
+        `laws`: the viscous springs' per-law arrays of the step (the
+        ViscousSprings fields but the state's), None without them."""
         par = parallel_arg(self.options)
+        visc = None
+        if laws is not None:
+            st = self.st
+            state = st["spring_state"] if self.hist is not None else np.zeros(0, np.int8)
+            visc = ViscousSprings(*laws[:6], state, *(st[f] for f in VISCOUS_STATE), laws[6])
         clock = time.perf_counter
         for k in range(n):
             t0 = clock()
             run_dynamic(1, step0 + k, stepping, self.bodies, self.springs, self.loads, self.bs,
-                        self.hist, None, None, None, par)
+                        self.hist, None, None, visc, par)
             t1 = clock()
             self.exchange()
             self.seconds[0] += t1 - t0
@@ -196,7 +202,7 @@ def _package(model, dom, options, state):
     """What a rank needs to step its share (pickled to it once)."""
     cells = {f: getattr(state, f) for f in SpringHistory._fields if f.startswith("cell_")}
     opt = Options(inelastic=options.inelastic, poisson=False, contact=False,
-                  parallel=options.parallel and len(dom.springs) > 0, viscous=False)
+                  parallel=options.parallel and len(dom.springs) > 0, viscous=options.viscous)
     import numba
     return {"domain": dom, "arrays": local_arrays(model, dom), "options": opt,
             "threads": numba.get_num_threads(),
@@ -262,13 +268,17 @@ class Leader:
         send = self.synced != (state.step, state.dt, state.t0)
         stepping = Stepping(float(state.dt), float(damping_alpha), float(damping_local),
                             float(state.t0))
+        laws = None
+        if self.local.options.viscous:
+            v = viscous_springs(model, state, self.local.options)
+            laws = (v.law_dashpot, v.law_g, v.law_a, v.law_b, v.kelvin_a, v.kelvin_b, v.inv_dt)
+        cmd = ("advance", (int(n_steps), int(state.step), stepping, send, laws))
         for q in range(1, self.comm.size):
-            self.comm.send(("advance", (int(n_steps), int(state.step), stepping, send)),
-                           dest=q, tag=_CMD)
+            self.comm.send(cmd, dest=q, tag=_CMD)
         if send:
             rows = [state_rows(state, d, model.n_bodies) for d in self.doms]
             self.local.load(self.comm.scatter(rows, root=0))
-        step = self.local.steps(int(n_steps), int(state.step), stepping)
+        step = self.local.steps(int(n_steps), int(state.step), stepping, laws)
         parts = self.comm.gather(self.local.own_rows(), root=0)
         n = model.n_bodies
         for d, part in zip(self.doms, parts):
@@ -322,8 +332,8 @@ def worker(comm):
         elif cmd == "setup":
             local = LocalRun(comm, comm.recv(source=0, tag=_TAG))
         elif cmd == "advance":
-            n, step0, stepping, send = arg
+            n, step0, stepping, send, laws = arg
             if send:
                 local.load(comm.scatter(None, root=0))
-            local.steps(n, step0, stepping)
+            local.steps(n, step0, stepping, laws)
             comm.gather(local.own_rows(), root=0)
