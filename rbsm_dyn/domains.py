@@ -115,6 +115,13 @@ class Domain:
     phase_ptr: np.ndarray
     send: dict = field(default_factory=dict)
     recv: dict = field(default_factory=dict)
+    #: contact (when the model has it): pairs (c,) the candidate pairs
+    #: touching an own body (rows of the one-process list, ascending),
+    #: pair_bodies (c, 2) their bodies in local numbering, own_pairs (c,)
+    #: those whose body a is own
+    pairs: np.ndarray = None
+    pair_bodies: np.ndarray = None
+    own_pairs: np.ndarray = None
 
     @property
     def n_local(self):
@@ -142,8 +149,11 @@ def schedule(group_of, n_groups, phase_ptr):
     return group_ptr, phase
 
 
-def local_domains(owner, spring_bodies, spring_slot, group_ptr, phase_ptr):
-    """The Domain of every rank (list, by rank) from the owners (N,)."""
+def local_domains(owner, spring_bodies, spring_slot, group_ptr, phase_ptr, pairs=None):
+    """The Domain of every rank (list, by rank) from the owners (N,);
+    `pairs` (P, 2): contact's candidate pairs (b = N: the ground), whose
+    other bodies join a rank's ghosts after its springs' (so that the
+    springs' local numbering does not change with them)."""
     owner = np.asarray(owner, dtype=np.int32)
     n = len(owner)
     nparts = int(owner.max()) + 1 if n else 1
@@ -160,6 +170,12 @@ def local_domains(owner, spring_bodies, spring_slot, group_ptr, phase_ptr):
         reach = np.concatenate([a[keep], b[keep]])
         reach = np.unique(reach[reach < n])
         ghost = np.setdiff1d(reach, own, assume_unique=True)
+        if pairs is not None:
+            pa, pb = pairs[:, 0].astype(np.int64), pairs[:, 1].astype(np.int64)
+            pm = np.flatnonzero(mine[pa] | mine[pb])
+            met = np.concatenate([pa[pm], pb[pm]])
+            ghost = np.concatenate([ghost, np.setdiff1d(met[met < n],
+                                                        np.concatenate([own, ghost]))])
         bodies = np.concatenate([own, ghost])
         g2l = np.full(n + 1, -1, dtype=np.int64)
         g2l[bodies] = np.arange(len(bodies))
@@ -171,6 +187,10 @@ def local_domains(owner, spring_bodies, spring_slot, group_ptr, phase_ptr):
                      own_springs=mine[a[keep]], faces=faces,
                      spring_slot=slot.astype(np.asarray(spring_slot).dtype),
                      group_ptr=gp, phase_ptr=pp)
+        if pairs is not None:
+            dom.pairs = pm
+            dom.pair_bodies = np.stack([g2l[pa[pm]], g2l[pb[pm]]], axis=1).astype(np.int32)
+            dom.own_pairs = mine[pa[pm]]
         go = owner[ghost]
         for q in np.unique(go):
             dom.recv[int(q)] = len(own) + np.flatnonzero(go == q)

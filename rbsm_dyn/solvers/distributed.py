@@ -23,9 +23,16 @@ checkpoints run on it unchanged (and a checkpoint restarts on any P).
 After rank 0 has changed the state between chunks (the start, a restart,
 a change of the step) the next chunk first sends each rank its rows.
 
-Not distributed yet (refused with P > 1, naming the reason): contact
-between cells, the Poisson correction, continuum yield, plane models, and the static, linear and modal solvers.  Rank 0 builds and
-holds the whole model (the distributed build of DESIGN.md §10 is to come).
+Contact between cells: rank 0 runs the broad phase between chunks as one
+process does; after each, the ranks get their share anew: the candidate
+pairs touching an own body (in the one-process order, so each body's
+contact forces are gathered in that order) and, as ghosts, the cells
+they meet; the ghosts' momenta are traded too (a pair's slip).
+
+Not distributed yet (refused with P > 1, naming the reason): the Poisson
+correction, continuum yield, plane models, and the static, linear and
+modal solvers.  Rank 0 builds and holds the whole model (the distributed
+build of DESIGN.md §10 is to come).
 """
 import time
 
@@ -37,9 +44,13 @@ from ..physics.integrate import run_dynamic
 from .passes import VISCOUS_STATE, Options, model_arrays, parallel_arg, viscous_springs
 
 #: the rows a ghost needs from its owner each step: what the spring passes
-#: read of a body (physics/springs.py material_points, mid_increment)
+#: read of a body (physics/springs.py material_points, mid_increment), and
+#: with contact its half-step momenta (physics/collide.py _pair_force: the
+#: slip's increment)
 GHOST_FIELDS = ("body_pos", "body_rot", "body_dq")
+CONTACT_GHOST_FIELDS = ("body_vel", "body_angmom")
 GHOST_WIDTH = 3 + 9 + 4
+CONTACT_GHOST_WIDTH = GHOST_WIDTH + 6
 #: per body (N+1 rows, the ground's last) and per body (N rows) state arrays
 BODY_FIELDS = ("body_pos", "body_quat", "body_vel", "body_angmom", "body_rot", "body_dq",
                "body_wrench", "body_support")
@@ -62,8 +73,7 @@ def refusal(case, model):
     if mode != "dynamic":
         return (f"solver.mode {mode} runs on one process: the distributed run is explicit "
                 "dynamics only; start it without mpirun (or with -n 1)")
-    why = [(model.contact is not None, "contact (contact between cells)"),
-           (bool(model.poisson_on), "the Poisson correction (materials' poisson)"),
+    why = [(bool(model.poisson_on), "the Poisson correction (materials' poisson)"),
            (model.cell_ivol.size > 0, "continuum yield (yield.model: continuum)"),
            (bool(model.plane), "a plane model (plane)")]
     got = [w for on, w in why if on]
@@ -102,13 +112,69 @@ def local_arrays(model, dom):
     return b, s, lo
 
 
-def state_rows(state, dom, n_bodies):
-    """One rank's rows of the whole state (dict of fresh arrays)."""
+def _ragged(ptr, idx):
+    """(new ptr, rows) of the CSR ranges ptr[i]..ptr[i+1] of the rows idx,
+    in that order."""
+    ptr = np.asarray(ptr, dtype=np.int64)
+    idx = np.asarray(idx, dtype=np.int64)
+    start = ptr[idx]
+    count = ptr[idx + 1] - start
+    new = np.zeros(len(count) + 1, dtype=np.int64)
+    np.cumsum(count, out=new[1:])
+    rows = np.repeat(start - new[:-1], count) + np.arange(new[-1], dtype=np.int64)
+    return new, rows
+
+
+def local_contact(model, dom):
+    """The contact geometry of one rank's bodies (model/contact.py
+    ContactModel, physics/arrays.py ContactArrays): the faces, loops and
+    vertices of its cells renumbered, and `face_of` (f,) each local face's
+    one-process row (the separating-face memory holds face rows)."""
+    cm = model.contact
+    rows = dom.bodies
+    cell_face_ptr, faces = _ragged(cm.cell_face_ptr, rows)
+    loop_ptr, loops = _ragged(cm.loop_ptr, faces)
+    vert_ptr, verts = _ragged(cm.vert_ptr, rows)
+    return {"cell_face_ptr": cell_face_ptr.astype(cm.cell_face_ptr.dtype),
+            "loop_ptr": loop_ptr.astype(cm.loop_ptr.dtype),
+            "loop_xyz": np.ascontiguousarray(cm.loop_xyz[loops]),
+            "face_plane": np.ascontiguousarray(cm.face_plane[faces]),
+            "cell_loop_ptr": loop_ptr[cell_face_ptr].astype(cm.cell_loop_ptr.dtype),
+            "vert_ptr": vert_ptr.astype(cm.vert_ptr.dtype),
+            "vert_xyz": np.ascontiguousarray(cm.vert_xyz[verts]),
+            **{f: _rows(getattr(cm, f), rows) for f in
+               ("radius", "body_size", "body_e", "body_g", "body_rigid")},
+            "face_of": faces}
+
+
+def _face_rows(sep, face_of, to_local):
+    """The separating-face memory (−1: none) renumbered: one-process rows to
+    local ones (to_local) or back."""
+    out = sep.copy()
+    hit = sep >= 0
+    if to_local:
+        order = np.argsort(face_of, kind="stable")
+        out[hit] = order[np.searchsorted(face_of, sep[hit], sorter=order)]
+    else:
+        out[hit] = face_of[sep[hit]]
+    return out
+
+
+def state_rows(state, dom, n_bodies, face_of=None):
+    """One rank's rows of the whole state (dict of fresh arrays); with
+    contact (face_of: local_contact's) its pairs' and bodies' contact state."""
     rows = dom.bodies
     rows_g = np.append(rows, n_bodies)
     out = {f: _rows(getattr(state, f), rows_g) for f in BODY_FIELDS}
     out.update({f: _rows(getattr(state, f), rows) for f in BODY_FIELDS_N})
     out.update({f: _rows(getattr(state, f), dom.springs) for f in SPRING_FIELDS})
+    if dom.pairs is not None:
+        cs = state.contact
+        out["c_slip"] = cs.slip[dom.pairs]
+        out["c_sep"] = _face_rows(cs.sep[dom.pairs], face_of, True)
+        out["c_out"] = cs.out[dom.pairs]
+        out["c_friction"] = cs.body_friction[rows]
+        out["c_dwrench"] = cs.body_dwrench[rows]
     return out
 
 
@@ -136,12 +202,38 @@ class LocalRun:
                                         for f in SpringHistory._fields))
         else:
             self.hist = None
+        self.contact = self.face_of = None
+        if self.options.contact:
+            self.face_of = pkg["contact"]["face_of"]
+            self.contact = self._contact(pkg)
         self.load(pkg["state"])
-        self.send = {q: (ids, np.empty((len(ids), GHOST_WIDTH))) for q, ids in self.dom.send.items()}
-        self.recv = {q: (ids, np.empty((len(ids), GHOST_WIDTH))) for q, ids in self.dom.recv.items()}
+        w = CONTACT_GHOST_WIDTH if self.options.contact else GHOST_WIDTH
+        self.send = {q: (ids, np.empty((len(ids), w))) for q, ids in self.dom.send.items()}
+        self.recv = {q: (ids, np.empty((len(ids), w))) for q, ids in self.dom.recv.items()}
         self.n_local = n
         #: [s] spent stepping and in the ghost exchange (waits included)
         self.seconds = [0.0, 0.0]
+
+    def _contact(self, pkg):
+        """The ContactArrays of this rank (its pairs, their state arrays in
+        self.st, its cells' geometry)."""
+        import numba
+
+        from ..physics.arrays import ContactArrays
+        from ..physics.collide import body_pairs
+        from .passes import launch_threads
+        launch_threads()
+        g, c = pkg["contact"], pkg["contact_const"]
+        pairs = self.dom.pair_bodies
+        ptr, entry = body_pairs(pairs, self.dom.n_local)
+        st = self.st
+        scratch = np.zeros((max(1, numba.get_num_threads()),) + tuple(c["scratch_shape"]))
+        return ContactArrays(pairs, st["c_slip"], st["c_sep"], st["c_out"], ptr, entry,
+                             st["c_friction"], st["c_dwrench"], g["cell_face_ptr"],
+                             g["loop_ptr"], g["loop_xyz"], g["face_plane"], g["cell_loop_ptr"],
+                             g["vert_ptr"], g["vert_xyz"], g["radius"], g["body_size"],
+                             g["body_e"], g["body_g"], g["body_rigid"], c["ground"], c["mu"],
+                             c["kfac"], c["zeta"], scratch, c["overwrite"])
 
     def load(self, rows):
         """Take these rows (state_rows) as the local state."""
@@ -162,7 +254,7 @@ class LocalRun:
         for k in range(n):
             t0 = clock()
             run_dynamic(1, step0 + k, stepping, self.bodies, self.springs, self.loads, self.bs,
-                        self.hist, None, None, visc, par)
+                        self.hist, None, self.contact, visc, par)
             t1 = clock()
             self.exchange()
             self.seconds[0] += t1 - t0
@@ -175,17 +267,25 @@ class LocalRun:
         from mpi4py import MPI
         st = self.st
         pos, rot, dq = st["body_pos"], st["body_rot"], st["body_dq"]
+        vel, ang = st["body_vel"], st["body_angmom"]
+        more = self.contact is not None
         reqs = [self.comm.Irecv(buf, source=q, tag=_TAG) for q, (_, buf) in self.recv.items()]
         for q, (ids, buf) in self.send.items():
             buf[:, 0:3] = pos[ids]
             buf[:, 3:12] = rot[ids].reshape(-1, 9)
             buf[:, 12:16] = dq[ids]
+            if more:
+                buf[:, 16:19] = vel[ids]
+                buf[:, 19:22] = ang[ids]
             reqs.append(self.comm.Isend(buf, dest=q, tag=_TAG))
         MPI.Request.Waitall(reqs)
         for q, (ids, buf) in self.recv.items():
             pos[ids] = buf[:, 0:3]
             rot[ids] = buf[:, 3:12].reshape(-1, 3, 3)
             dq[ids] = buf[:, 12:16]
+            if more:
+                vel[ids] = buf[:, 16:19]
+                ang[ids] = buf[:, 19:22]
 
     def own_rows(self):
         """This rank's own bodies' and springs' rows (and the ground's,
@@ -195,19 +295,36 @@ class LocalRun:
         out["ground"] = {f: self.st[f][-1].copy() for f in BODY_FIELDS}
         own = self.dom.own_springs
         out.update({f: _rows(self.st[f], own) for f in SPRING_FIELDS})
+        if self.contact is not None:
+            mine = self.dom.own_pairs
+            out["c_slip"] = self.st["c_slip"][mine]
+            out["c_sep"] = _face_rows(self.st["c_sep"][mine], self.face_of, False)
+            out["c_out"] = self.st["c_out"][mine]
+            out["c_friction"] = self.st["c_friction"][:k].copy()
+            out["c_dwrench"] = self.st["c_dwrench"][:k].copy()
         return out
 
 
 def _package(model, dom, options, state):
-    """What a rank needs to step its share (pickled to it once)."""
-    cells = {f: getattr(state, f) for f in SpringHistory._fields if f.startswith("cell_")}
-    opt = Options(inelastic=options.inelastic, poisson=False, contact=False,
-                  parallel=options.parallel and len(dom.springs) > 0, viscous=options.viscous)
+    """What a rank needs to step its share (pickled to it; again after
+    each broad phase of a run with contact: its ghosts change)."""
     import numba
-    return {"domain": dom, "arrays": local_arrays(model, dom), "options": opt,
-            "threads": numba.get_num_threads(),
-            "state": state_rows(state, dom, model.n_bodies),
-            "cells": {f: x[:0] for f, x in cells.items()}}
+    cells = {f: getattr(state, f) for f in SpringHistory._fields if f.startswith("cell_")}
+    opt = Options(inelastic=options.inelastic, poisson=False, contact=options.contact,
+                  parallel=options.parallel and len(dom.springs) > 0, viscous=options.viscous)
+    pkg = {"domain": dom, "arrays": local_arrays(model, dom), "options": opt,
+           "threads": numba.get_num_threads(),
+           "cells": {f: x[:0] for f, x in cells.items()}}
+    face_of = None
+    if options.contact:
+        cm = model.contact
+        pkg["contact"] = local_contact(model, dom)
+        face_of = pkg["contact"]["face_of"]
+        pkg["contact_const"] = {"ground": cm.ground, "mu": float(cm.mu), "kfac": float(cm.kfac),
+                                "zeta": float(cm.zeta), "overwrite": model.n_springs == 0,
+                                "scratch_shape": state.contact.scratch.shape[1:]}
+    pkg["state"] = state_rows(state, dom, model.n_bodies, face_of)
+    return pkg
 
 
 class Leader:
@@ -219,14 +336,25 @@ class Leader:
         self.comm = comm
         self.method = method
         self.doms = None
+        self.owner = None
+        self.builds = -1
+        self.setups = 0
         self.figures = {}
 
     def _setup(self, model, state):
+        """The decomposition (once) and the ranks' packages (again after
+        each broad phase of a run with contact)."""
         from ..domains import decompose, local_domains, summary
         comm = self.comm
-        owner = decompose(model, comm.size, self.method)
+        if self.owner is None:
+            self.owner = decompose(model, comm.size, self.method)
+        owner = self.owner
+        pairs = None
+        if model.contact is not None:
+            pairs = state.contact.pairs
+            self.builds = state.contact.builds
         doms = local_domains(owner, model.spring_bodies, model.spring_slot, model.group_ptr,
-                             model.phase_ptr)
+                             model.phase_ptr, pairs)
         self.doms = doms
         self.figures = summary(doms, model.n_springs)
         self.figures["method"] = self.method
@@ -235,6 +363,7 @@ class Leader:
             comm.send(("setup", None), dest=q, tag=_CMD)
             comm.send(_package(model, doms[q], opt, state), dest=q, tag=_TAG)
         self.local = LocalRun(comm, _package(model, doms[0], opt, state))
+        self.setups += 1
         self._mark(state)
 
     def seconds(self, reset=False):
@@ -263,7 +392,8 @@ class Leader:
     def advance(self, model, state, n_steps, damping_alpha=0.0, damping_local=0.0,
                 options=None):
         """explicit.advance over the ranks: n_steps steps of the state."""
-        if self.doms is None:
+        if self.doms is None or (model.contact is not None
+                                 and state.contact.builds != self.builds):
             self._setup(model, state)
         send = self.synced != (state.step, state.dt, state.t0)
         stepping = Stepping(float(state.dt), float(damping_alpha), float(damping_local),
@@ -276,7 +406,10 @@ class Leader:
         for q in range(1, self.comm.size):
             self.comm.send(cmd, dest=q, tag=_CMD)
         if send:
-            rows = [state_rows(state, d, model.n_bodies) for d in self.doms]
+            faces = [None] * len(self.doms)
+            if model.contact is not None:
+                faces = [local_contact(model, d)["face_of"] for d in self.doms]
+            rows = [state_rows(state, d, model.n_bodies, f) for d, f in zip(self.doms, faces)]
             self.local.load(self.comm.scatter(rows, root=0))
         step = self.local.steps(int(n_steps), int(state.step), stepping, laws)
         parts = self.comm.gather(self.local.own_rows(), root=0)
@@ -289,10 +422,18 @@ class Leader:
             for f in SPRING_FIELDS:
                 if len(getattr(state, f)):
                     getattr(state, f)[sp] = part[f]
+            if model.contact is not None:
+                cs, pr = state.contact, d.pairs[d.own_pairs]
+                cs.slip[pr] = part["c_slip"]
+                cs.sep[pr] = part["c_sep"]
+                cs.out[pr] = part["c_out"]
+                cs.body_friction[own] = part["c_friction"]
+                cs.body_dwrench[own] = part["c_dwrench"]
         for f in BODY_FIELDS:
             getattr(state, f)[n] = parts[0]["ground"][f]
         state.step = step
         self._mark(state)
+
 
 def stop_workers(comm, code):
     """Rank 0's last word to the other ranks (whether or not a run started)."""
