@@ -1,5 +1,5 @@
 """A run over several MPI processes (solvers/distributed.py, domains.py;
-docs/case_file.md "Several processes"): ``mpirun -n 2 python -m rbsm_dyn
+README "Using it"): ``mpirun -n 2 python -m rbsm_dyn
 CASE`` writes the one-process history bit for bit (DESIGN.md §10: every
 body's wrench summed in the one-process order), for an elastic wave, a
 plastic beam whose step falls as its gaps grow, a dynamic crack through a
