@@ -60,22 +60,54 @@ def assert_same_history(path, ref):
     return want
 
 
+#: continuum yield (yield.model: continuum): a one-block slab of 8 × 8
+#: blocks in plane strain pressed in along z and pulled along x, 20 yield
+#: strains (tests/test_continuum_yield.py's biaxial test in 3D)
+CONTINUUM = """
+name: biaxial
+domain: {box: [[0, 0, 0], [0.01, 0.0025, 0.01]]}
+mesh: {kind: blocks, divisions: [8, 1, 8]}
+materials:
+  steel: {density: 7800, young: 200.0e9, poisson: 0.0,
+          yield: {criterion: tresca, stress: 200.0e6, model: continuum}}
+groups:
+  right: {box: [[0.0075, -1, -1], [1, 1, 1]]}
+  top: {box: [[-1, -1, 0.0075], [1, 1, 1]]}
+boundary:
+  - {face: xmin, fix: [x]}
+  - {face: zmin, fix: [z]}
+  - {group: all, fix: [y]}
+  - {group: right, velocity: [0.05, null, null]}
+  - {group: top, velocity: [null, null, -0.05]}
+solver: {mode: dynamic, end_time: 4.0e-4, damping: {local: 0.7}}
+output: {interval: 2.0e-5}
+"""
+
+
+def case_path(d, name):
+    if name == "continuum":
+        path = d / "continuum.yaml"
+        path.write_text(CONTINUUM, encoding="utf-8")
+        return path
+    return CASES / f"{name}.yaml"
+
+
 @pytest.fixture(scope="module")
 def refs(tmp_path_factory):
-    """The one-process histories of the three cases."""
+    """The one-process histories of the cases."""
     d = tmp_path_factory.mktemp("mpi")
     out = {}
     for name in ("bar_wave", "impulsive_beam", "dynamic_crack", "block_on_spring_quake",
-                 "impact_plate"):
+                 "impact_plate", "continuum"):
         out[name] = d / f"{name}-1.h5"
-        assert main([str(CASES / f"{name}.yaml"), "--out", str(out[name]), "--quiet",
+        assert main([str(case_path(d, name)), "--out", str(out[name]), "--quiet",
                      *LIMIT.get(name, ())]) == 0
     return d, out
 
 
 @pytest.mark.parametrize("name, threads", [("bar_wave", 1), ("impulsive_beam", 1),
                                            ("dynamic_crack", 2), ("block_on_spring_quake", 1),
-                                           ("impact_plate", 1)])
+                                           ("impact_plate", 1), ("continuum", 1)])
 def test_two_processes_write_the_one_process_history(refs, name, threads):
     """bar_wave (blocks, elastic), impulsive_beam (von Mises yield; the
     step falls as the gaps grow, explicit.StepAdapter) and dynamic_crack
@@ -83,11 +115,13 @@ def test_two_processes_write_the_one_process_history(refs, name, threads):
     passes) and block_on_spring_quake (a dashpot spring: the viscous pass;
     the ground moving with a record; one body a rank) and impact_plate
     (contact between cells: a rigid striker on a breaking plate, its
-    pairs across the ranks' border) over 2 processes: the history and the
-    final state equal one process's bit for bit."""
+    pairs across the ranks' border) and a slab with continuum yield (the
+    cells' plastic strain increments traded with the ghosts) over 2
+    processes: the history and the final state equal one process's bit for
+    bit."""
     d, ref = refs
     out = d / f"{name}-2.h5"
-    res = run_ranks(2, CASES / f"{name}.yaml", "--out", out, *LIMIT.get(name, ()), cwd=d,
+    res = run_ranks(2, case_path(d, name), "--out", out, *LIMIT.get(name, ()), cwd=d,
                     threads=threads)
     assert res.returncode == 0, res.stderr
     want = assert_same_history(out, ref[name])
@@ -99,6 +133,8 @@ def test_two_processes_write_the_one_process_history(refs, name, threads):
         import rbsm_dyn
         v = rbsm_dyn.open_history(ref[name]).observables["v_striker"]
         assert abs(v[-1]) < 0.1 * abs(v[0])                # the striker was stopped by contact
+    if name == "continuum":
+        assert np.abs(want["cell_dep"]).max() > 0          # the cells flowed
 
 
 def test_a_two_process_checkpoint_restarts_on_one_and_on_two(refs):

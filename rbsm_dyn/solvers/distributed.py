@@ -30,7 +30,7 @@ contact forces are gathered in that order) and, as ghosts, the cells
 they meet; the ghosts' momenta are traded too (a pair's slip).
 
 Not distributed yet (refused with P > 1, naming the reason): the Poisson
-correction, continuum yield, plane models, and the static, linear and
+correction, plane models, and the static, linear and
 modal solvers.  Rank 0 builds and holds the whole model (the distributed
 build of DESIGN.md §10 is to come).
 """
@@ -58,6 +58,10 @@ BODY_FIELDS_N = ("body_work", "body_damp", "body_reaction")
 #: the spring history's per-spring-point arrays (length 0 when unused)
 SPRING_FIELDS = ("spring_state", "spring_dp", "spring_kappa", "spring_dmg", "spring_wp",
                  "spring_wf", "spring_rate") + VISCOUS_STATE
+#: the cells' history (length 0 when unused): continuum yield's (N+1 rows)
+#: and the Poisson correction's (N rows)
+CELL_FIELDS = ("cell_moment", "cell_sigma", "cell_dep")
+POISSON_CELL_FIELDS = ("cell_chi", "cell_wf")
 _TAG = 17
 _CMD = 18
 #: a waiting rank polls for rank 0's next command at most this often [s]
@@ -74,7 +78,6 @@ def refusal(case, model):
         return (f"solver.mode {mode} runs on one process: the distributed run is explicit "
                 "dynamics only; start it without mpirun (or with -n 1)")
     why = [(bool(model.poisson_on), "the Poisson correction (materials' poisson)"),
-           (model.cell_ivol.size > 0, "continuum yield (yield.model: continuum)"),
            (bool(model.plane), "a plane model (plane)")]
     got = [w for on, w in why if on]
     if got:
@@ -168,6 +171,8 @@ def state_rows(state, dom, n_bodies, face_of=None):
     out = {f: _rows(getattr(state, f), rows_g) for f in BODY_FIELDS}
     out.update({f: _rows(getattr(state, f), rows) for f in BODY_FIELDS_N})
     out.update({f: _rows(getattr(state, f), dom.springs) for f in SPRING_FIELDS})
+    out.update({f: _rows(getattr(state, f), rows_g) for f in CELL_FIELDS})
+    out.update({f: _rows(getattr(state, f), rows) for f in POISSON_CELL_FIELDS})
     if dom.pairs is not None:
         cs = state.contact
         out["c_slip"] = cs.slip[dom.pairs]
@@ -195,19 +200,19 @@ class LocalRun:
         st["spring_force"] = np.zeros((len(self.dom.springs), 3))
         self.st = st
         self.bs = BodyState(*(st[f] for f in BodyState._fields))
+        self.hist = None
         if self.options.inelastic:
-            empty = {f: np.zeros((0,) + x.shape[1:], x.dtype)
-                     for f, x in pkg["cells"].items()}
-            self.hist = SpringHistory(*(st[f] if f in st else empty[f]
-                                        for f in SpringHistory._fields))
-        else:
-            self.hist = None
+            self.hist = SpringHistory(*(st[f] for f in SpringHistory._fields))
+        # continuum yield: the ghosts' plastic strain increments, for the
+        # next pass's gaps (physics/inelastic.py plastic_offset)
+        self.cells = len(st["cell_dep"]) > 0
         self.contact = self.face_of = None
         if self.options.contact:
             self.face_of = pkg["contact"]["face_of"]
             self.contact = self._contact(pkg)
         self.load(pkg["state"])
-        w = CONTACT_GHOST_WIDTH if self.options.contact else GHOST_WIDTH
+        w = ((CONTACT_GHOST_WIDTH if self.options.contact else GHOST_WIDTH)
+             + (6 if self.cells else 0))
         self.send = {q: (ids, np.empty((len(ids), w))) for q, ids in self.dom.send.items()}
         self.recv = {q: (ids, np.empty((len(ids), w))) for q, ids in self.dom.recv.items()}
         self.n_local = n
@@ -269,6 +274,8 @@ class LocalRun:
         pos, rot, dq = st["body_pos"], st["body_rot"], st["body_dq"]
         vel, ang = st["body_vel"], st["body_angmom"]
         more = self.contact is not None
+        cells, dep = self.cells, st["cell_dep"]
+        w = 22 if more else 16
         reqs = [self.comm.Irecv(buf, source=q, tag=_TAG) for q, (_, buf) in self.recv.items()]
         for q, (ids, buf) in self.send.items():
             buf[:, 0:3] = pos[ids]
@@ -277,6 +284,8 @@ class LocalRun:
             if more:
                 buf[:, 16:19] = vel[ids]
                 buf[:, 19:22] = ang[ids]
+            if cells:
+                buf[:, w:w + 6] = dep[ids]
             reqs.append(self.comm.Isend(buf, dest=q, tag=_TAG))
         MPI.Request.Waitall(reqs)
         for q, (ids, buf) in self.recv.items():
@@ -286,15 +295,19 @@ class LocalRun:
             if more:
                 vel[ids] = buf[:, 16:19]
                 ang[ids] = buf[:, 19:22]
+            if cells:
+                dep[ids] = buf[:, w:w + 6]
 
     def own_rows(self):
         """This rank's own bodies' and springs' rows (and the ground's,
         the same on every rank)."""
         k = self.dom.n_own
         out = {f: self.st[f][:k].copy() for f in BODY_FIELDS + BODY_FIELDS_N}
-        out["ground"] = {f: self.st[f][-1].copy() for f in BODY_FIELDS}
+        out["ground"] = {f: self.st[f][-1].copy() for f in BODY_FIELDS + CELL_FIELDS
+                         if len(self.st[f])}
         own = self.dom.own_springs
         out.update({f: _rows(self.st[f], own) for f in SPRING_FIELDS})
+        out.update({f: self.st[f][:k].copy() for f in CELL_FIELDS + POISSON_CELL_FIELDS})
         if self.contact is not None:
             mine = self.dom.own_pairs
             out["c_slip"] = self.st["c_slip"][mine]
@@ -309,12 +322,10 @@ def _package(model, dom, options, state):
     """What a rank needs to step its share (pickled to it; again after
     each broad phase of a run with contact: its ghosts change)."""
     import numba
-    cells = {f: getattr(state, f) for f in SpringHistory._fields if f.startswith("cell_")}
     opt = Options(inelastic=options.inelastic, poisson=False, contact=options.contact,
                   parallel=options.parallel and len(dom.springs) > 0, viscous=options.viscous)
     pkg = {"domain": dom, "arrays": local_arrays(model, dom), "options": opt,
-           "threads": numba.get_num_threads(),
-           "cells": {f: x[:0] for f, x in cells.items()}}
+           "threads": numba.get_num_threads()}
     face_of = None
     if options.contact:
         cm = model.contact
@@ -422,6 +433,9 @@ class Leader:
             for f in SPRING_FIELDS:
                 if len(getattr(state, f)):
                     getattr(state, f)[sp] = part[f]
+            for f in CELL_FIELDS + POISSON_CELL_FIELDS:
+                if len(getattr(state, f)):
+                    getattr(state, f)[own] = part[f]
             if model.contact is not None:
                 cs, pr = state.contact, d.pairs[d.own_pairs]
                 cs.slip[pr] = part["c_slip"]
@@ -429,8 +443,8 @@ class Leader:
                 cs.out[pr] = part["c_out"]
                 cs.body_friction[own] = part["c_friction"]
                 cs.body_dwrench[own] = part["c_dwrench"]
-        for f in BODY_FIELDS:
-            getattr(state, f)[n] = parts[0]["ground"][f]
+        for f, x in parts[0]["ground"].items():
+            getattr(state, f)[n] = x
         state.step = step
         self._mark(state)
 
