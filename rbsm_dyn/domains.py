@@ -122,6 +122,8 @@ class Domain:
     pairs: np.ndarray = None
     pair_bodies: np.ndarray = None
     own_pairs: np.ndarray = None
+    #: the Poisson correction: the cells linked to an own cell (global ids)
+    linked: np.ndarray = None
 
     @property
     def n_local(self):
@@ -149,11 +151,29 @@ def schedule(group_of, n_groups, phase_ptr):
     return group_ptr, phase
 
 
-def local_domains(owner, spring_bodies, spring_slot, group_ptr, phase_ptr, pairs=None):
+def ragged(ptr, idx):
+    """(new ptr, rows) of the CSR ranges ptr[i]..ptr[i+1] of the rows idx,
+    in that order."""
+    ptr = np.asarray(ptr, dtype=np.int64)
+    idx = np.asarray(idx, dtype=np.int64)
+    start = ptr[idx]
+    count = ptr[idx + 1] - start
+    new = np.zeros(len(count) + 1, dtype=np.int64)
+    np.cumsum(count, out=new[1:])
+    rows = np.repeat(start - new[:-1], count) + np.arange(new[-1], dtype=np.int64)
+    return new, rows
+
+
+def local_domains(owner, spring_bodies, spring_slot, group_ptr, phase_ptr, pairs=None,
+                  links=None):
     """The Domain of every rank (list, by rank) from the owners (N,);
     `pairs` (P, 2): contact's candidate pairs (b = N: the ground), whose
     other bodies join a rank's ghosts after its springs' (so that the
-    springs' local numbering does not change with them)."""
+    springs' local numbering does not change with them); `links`: the
+    Poisson correction's (cell_slot_ptr, slot_cell, slot_s0, slot_s1)
+    (physics/poisson.py): an own cell's force needs its linked neighbours'
+    pressures, so those neighbours (`linked`) get their own links' springs
+    and cells too (a second layer of ghosts)."""
     owner = np.asarray(owner, dtype=np.int32)
     n = len(owner)
     nparts = int(owner.max()) + 1 if n else 1
@@ -167,6 +187,16 @@ def local_domains(owner, spring_bodies, spring_slot, group_ptr, phase_ptr, pairs
         mine = owner_g == r
         keep = np.flatnonzero(mine[a] | mine[b])
         own = np.flatnonzero(owner == r)
+        linked = None
+        if links is not None:
+            sptr, scell, ss0, ss1 = links
+            _, k = ragged(sptr, own)
+            linked = np.setdiff1d(np.asarray(scell)[k], own)
+            _, k = ragged(sptr, linked)
+            _, extra = ragged(np.stack([ss0[k], ss1[k]], axis=1).reshape(-1)
+                              if len(k) else np.zeros(1, np.int64),
+                              np.arange(0, 2 * len(k), 2))
+            keep = np.union1d(keep, extra)
         reach = np.concatenate([a[keep], b[keep]])
         reach = np.unique(reach[reach < n])
         ghost = np.setdiff1d(reach, own, assume_unique=True)
@@ -184,6 +214,7 @@ def local_domains(owner, spring_bodies, spring_slot, group_ptr, phase_ptr, pairs
         faces, slot = np.unique(np.asarray(spring_slot)[keep], return_inverse=True)
         gp, pp = schedule(group_of[keep], n_groups, phase_ptr)
         dom = Domain(rank=r, n_own=len(own), bodies=bodies, springs=keep, spring_bodies=lsb,
+                     linked=linked,
                      own_springs=mine[a[keep]], faces=faces,
                      spring_slot=slot.astype(np.asarray(spring_slot).dtype),
                      group_ptr=gp, phase_ptr=pp)

@@ -29,10 +29,15 @@ pairs touching an own body (in the one-process order, so each body's
 contact forces are gathered in that order) and, as ghosts, the cells
 they meet; the ghosts' momenta are traded too (a pair's slip).
 
-Not distributed yet (refused with P > 1, naming the reason): the Poisson
-correction, plane models, and the static, linear and
-modal solvers.  Rank 0 builds and holds the whole model (the distributed
-build of DESIGN.md §10 is to come).
+Continuum yield: the ghosts' plastic strain increments are traded with
+their positions (the next pass's gaps).  The Poisson correction: an own
+cell's force needs its linked neighbours' pressures, so those neighbours
+get their own links' springs and cells as well (domains.local_domains: a
+second layer of ghosts; local_poisson).
+
+Not distributed yet (refused with P > 1, naming the reason): plane models,
+and the static, linear and modal solvers.  Rank 0 builds and holds the
+whole model (the distributed build of DESIGN.md §10 is to come).
 """
 import time
 
@@ -40,6 +45,7 @@ import numpy as np
 
 from ..physics.arrays import (Bodies, BodyState, Loads, SpringHistory, Springs, Stepping,
                               ViscousSprings)
+from ..domains import ragged
 from ..physics.integrate import run_dynamic
 from .passes import VISCOUS_STATE, Options, model_arrays, parallel_arg, viscous_springs
 
@@ -77,8 +83,7 @@ def refusal(case, model):
     if mode != "dynamic":
         return (f"solver.mode {mode} runs on one process: the distributed run is explicit "
                 "dynamics only; start it without mpirun (or with -n 1)")
-    why = [(bool(model.poisson_on), "the Poisson correction (materials' poisson)"),
-           (bool(model.plane), "a plane model (plane)")]
+    why = [(bool(model.plane), "a plane model (plane)")]
     got = [w for on, w in why if on]
     if got:
         return (f"{', '.join(got)} not distributed yet: run this case on one process "
@@ -115,19 +120,6 @@ def local_arrays(model, dom):
     return b, s, lo
 
 
-def _ragged(ptr, idx):
-    """(new ptr, rows) of the CSR ranges ptr[i]..ptr[i+1] of the rows idx,
-    in that order."""
-    ptr = np.asarray(ptr, dtype=np.int64)
-    idx = np.asarray(idx, dtype=np.int64)
-    start = ptr[idx]
-    count = ptr[idx + 1] - start
-    new = np.zeros(len(count) + 1, dtype=np.int64)
-    np.cumsum(count, out=new[1:])
-    rows = np.repeat(start - new[:-1], count) + np.arange(new[-1], dtype=np.int64)
-    return new, rows
-
-
 def local_contact(model, dom):
     """The contact geometry of one rank's bodies (model/contact.py
     ContactModel, physics/arrays.py ContactArrays): the faces, loops and
@@ -135,9 +127,9 @@ def local_contact(model, dom):
     one-process row (the separating-face memory holds face rows)."""
     cm = model.contact
     rows = dom.bodies
-    cell_face_ptr, faces = _ragged(cm.cell_face_ptr, rows)
-    loop_ptr, loops = _ragged(cm.loop_ptr, faces)
-    vert_ptr, verts = _ragged(cm.vert_ptr, rows)
+    cell_face_ptr, faces = ragged(cm.cell_face_ptr, rows)
+    loop_ptr, loops = ragged(cm.loop_ptr, faces)
+    vert_ptr, verts = ragged(cm.vert_ptr, rows)
     return {"cell_face_ptr": cell_face_ptr.astype(cm.cell_face_ptr.dtype),
             "loop_ptr": loop_ptr.astype(cm.loop_ptr.dtype),
             "loop_xyz": np.ascontiguousarray(cm.loop_xyz[loops]),
@@ -148,6 +140,47 @@ def local_contact(model, dom):
             **{f: _rows(getattr(cm, f), rows) for f in
                ("radius", "body_size", "body_e", "body_g", "body_rigid")},
             "face_of": faces}
+
+
+def local_poisson(model, dom):
+    """The Poisson correction's slots of one rank (physics/poisson.py,
+    arrays.PoissonSlots): the full links of its own cells and of the cells
+    linked to them (dom.linked), none for the other ghosts (their pressure
+    0); neighbours, reverse slots and spring ranges renumbered (a reverse
+    slot into a cell without links points to itself: only ghosts' wrenches,
+    which are not kept, read it)."""
+    pa = model.poisson
+    n = model.n_bodies
+    rows = dom.bodies
+    full = np.zeros(n, dtype=bool)
+    full[rows[:dom.n_own]] = True
+    full[dom.linked] = True
+    sptr = np.asarray(pa.cell_slot_ptr, dtype=np.int64)
+    mine = full[rows]
+    cnt = np.where(mine, sptr[rows + 1] - sptr[rows], 0)
+    ptr = np.zeros(len(rows) + 1, dtype=np.int64)
+    np.cumsum(cnt, out=ptr[1:])
+    _, slots = ragged(sptr, rows[mine])
+    g2l = np.full(n + 1, -1, dtype=np.int64)
+    g2l[rows] = np.arange(len(rows))
+    rev_g = np.asarray(pa.slot_rev, dtype=np.int64)[slots]
+    rev = np.arange(len(slots))
+    if len(slots):
+        order = np.argsort(slots, kind="stable")
+        at = np.minimum(np.searchsorted(slots[order], rev_g), len(slots) - 1)
+        found = slots[order][at] == rev_g
+        rev[found] = order[at][found]
+    s0 = np.searchsorted(dom.springs, np.asarray(pa.slot_s0, dtype=np.int64)[slots])
+    s1 = s0 + (np.asarray(pa.slot_s1, dtype=np.int64) - pa.slot_s0)[slots]
+    it = np.asarray(pa.slot_cell).dtype
+    return {"cell_slot_ptr": ptr.astype(np.asarray(pa.cell_slot_ptr).dtype),
+            "slot_cell": g2l[np.asarray(pa.slot_cell)[slots]].astype(it),
+            "slot_rev": rev.astype(np.asarray(pa.slot_rev).dtype),
+            "slot_g": np.ascontiguousarray(pa.slot_g[slots]),
+            "cell_c0": np.where(mine, pa.cell_c0[rows], 0.0),
+            "slot_s0": s0.astype(np.asarray(pa.slot_s0).dtype),
+            "slot_s1": s1.astype(np.asarray(pa.slot_s1).dtype),
+            "cell_lv": np.where(mine, pa.cell_lv[rows], 0.0)}
 
 
 def _face_rows(sep, face_of, to_local):
@@ -206,6 +239,12 @@ class LocalRun:
         # continuum yield: the ghosts' plastic strain increments, for the
         # next pass's gaps (physics/inelastic.py plastic_offset)
         self.cells = len(st["cell_dep"]) > 0
+        self.aux = None
+        if self.options.poisson:
+            from ..physics.arrays import PoissonSlots
+            q = pkg["poisson"]
+            self.aux = PoissonSlots(**q, aux_g=np.zeros((len(q["slot_cell"]), 3)),
+                                    aux_p=np.zeros((7, n)))
         self.contact = self.face_of = None
         if self.options.contact:
             self.face_of = pkg["contact"]["face_of"]
@@ -259,7 +298,7 @@ class LocalRun:
         for k in range(n):
             t0 = clock()
             run_dynamic(1, step0 + k, stepping, self.bodies, self.springs, self.loads, self.bs,
-                        self.hist, None, self.contact, visc, par)
+                        self.hist, self.aux, self.contact, visc, par)
             t1 = clock()
             self.exchange()
             self.seconds[0] += t1 - t0
@@ -322,10 +361,12 @@ def _package(model, dom, options, state):
     """What a rank needs to step its share (pickled to it; again after
     each broad phase of a run with contact: its ghosts change)."""
     import numba
-    opt = Options(inelastic=options.inelastic, poisson=False, contact=options.contact,
+    opt = Options(inelastic=options.inelastic, poisson=options.poisson, contact=options.contact,
                   parallel=options.parallel and len(dom.springs) > 0, viscous=options.viscous)
     pkg = {"domain": dom, "arrays": local_arrays(model, dom), "options": opt,
            "threads": numba.get_num_threads()}
+    if options.poisson:
+        pkg["poisson"] = local_poisson(model, dom)
     face_of = None
     if options.contact:
         cm = model.contact
@@ -364,8 +405,12 @@ class Leader:
         if model.contact is not None:
             pairs = state.contact.pairs
             self.builds = state.contact.builds
+        links = None
+        if model.poisson_on:
+            pa = model.poisson
+            links = (pa.cell_slot_ptr, pa.slot_cell, pa.slot_s0, pa.slot_s1)
         doms = local_domains(owner, model.spring_bodies, model.spring_slot, model.group_ptr,
-                             model.phase_ptr, pairs)
+                             model.phase_ptr, pairs, links)
         self.doms = doms
         self.figures = summary(doms, model.n_springs)
         self.figures["method"] = self.method
