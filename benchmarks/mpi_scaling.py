@@ -3,7 +3,7 @@
     mpirun -n P python benchmarks/mpi_scaling.py --bodies 36000 --steps 60 --physics elastic
 
 Builds bench's Voronoi block (rbsm_dyn/bench.py) on rank 0, then times
-K steps of the explicit loop three ways on the same model and start:
+K steps of the explicit loop two ways on the same model and start:
 
 * one process, one thread (`advance`: the one-process baseline);
 * P processes through `Leader.advance` (one thread a rank), the ghosts

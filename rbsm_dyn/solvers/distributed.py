@@ -43,20 +43,22 @@ import time
 
 import numpy as np
 
+from ..domains import ragged
 from ..physics.arrays import (Bodies, BodyState, Loads, SpringHistory, Springs, Stepping,
                               ViscousSprings)
-from ..domains import ragged
 from ..physics.integrate import run_dynamic
 from .passes import VISCOUS_STATE, Options, model_arrays, parallel_arg, viscous_springs
 
 #: the rows a ghost needs from its owner each step: what the spring passes
-#: read of a body (physics/springs.py material_points, mid_increment), and
-#: with contact its half-step momenta (physics/collide.py _pair_force: the
-#: slip's increment)
+#: read of a body (physics/springs.py material_points, mid_increment); with
+#: contact its half-step momenta (physics/collide.py _pair_force: the
+#: slip's increment); with continuum yield its plastic strain increment
+#: (physics/inelastic.py plastic_offset: the next pass's gaps)
 GHOST_FIELDS = ("body_pos", "body_rot", "body_dq")
 CONTACT_GHOST_FIELDS = ("body_vel", "body_angmom")
+CELL_GHOST_FIELDS = ("cell_dep",)
+#: doubles a ghost of a run without contact or continuum yield takes
 GHOST_WIDTH = 3 + 9 + 4
-CONTACT_GHOST_WIDTH = GHOST_WIDTH + 6
 #: per body (N+1 rows, the ground's last) and per body (N rows) state arrays
 BODY_FIELDS = ("body_pos", "body_quat", "body_vel", "body_angmom", "body_rot", "body_dq",
                "body_wrench", "body_support")
@@ -236,9 +238,10 @@ class LocalRun:
         self.hist = None
         if self.options.inelastic:
             self.hist = SpringHistory(*(st[f] for f in SpringHistory._fields))
-        # continuum yield: the ghosts' plastic strain increments, for the
-        # next pass's gaps (physics/inelastic.py plastic_offset)
-        self.cells = len(st["cell_dep"]) > 0
+        # the ghosts' rows traded each step, as (n + 1, width) views
+        names = GHOST_FIELDS + (CONTACT_GHOST_FIELDS if self.options.contact else ()) \
+            + (CELL_GHOST_FIELDS if len(st["cell_dep"]) else ())
+        self.ghost = [st[f].reshape(len(st[f]), -1) for f in names]
         self.aux = None
         if self.options.poisson:
             from ..physics.arrays import PoissonSlots
@@ -250,8 +253,7 @@ class LocalRun:
             self.face_of = pkg["contact"]["face_of"]
             self.contact = self._contact(pkg)
         self.load(pkg["state"])
-        w = ((CONTACT_GHOST_WIDTH if self.options.contact else GHOST_WIDTH)
-             + (6 if self.cells else 0))
+        w = sum(x.shape[1] for x in self.ghost)
         self.send = {q: (ids, np.empty((len(ids), w))) for q, ids in self.dom.send.items()}
         self.recv = {q: (ids, np.empty((len(ids), w))) for q, ids in self.dom.recv.items()}
         self.n_local = n
@@ -309,33 +311,21 @@ class LocalRun:
         """The ghosts' rows from their owners (nonblocking, one message per
         neighbour each way)."""
         from mpi4py import MPI
-        st = self.st
-        pos, rot, dq = st["body_pos"], st["body_rot"], st["body_dq"]
-        vel, ang = st["body_vel"], st["body_angmom"]
-        more = self.contact is not None
-        cells, dep = self.cells, st["cell_dep"]
-        w = 22 if more else 16
         reqs = [self.comm.Irecv(buf, source=q, tag=_TAG) for q, (_, buf) in self.recv.items()]
         for q, (ids, buf) in self.send.items():
-            buf[:, 0:3] = pos[ids]
-            buf[:, 3:12] = rot[ids].reshape(-1, 9)
-            buf[:, 12:16] = dq[ids]
-            if more:
-                buf[:, 16:19] = vel[ids]
-                buf[:, 19:22] = ang[ids]
-            if cells:
-                buf[:, w:w + 6] = dep[ids]
+            o = 0
+            for x in self.ghost:
+                w = x.shape[1]
+                buf[:, o:o + w] = x[ids]
+                o += w
             reqs.append(self.comm.Isend(buf, dest=q, tag=_TAG))
         MPI.Request.Waitall(reqs)
         for q, (ids, buf) in self.recv.items():
-            pos[ids] = buf[:, 0:3]
-            rot[ids] = buf[:, 3:12].reshape(-1, 3, 3)
-            dq[ids] = buf[:, 12:16]
-            if more:
-                vel[ids] = buf[:, 16:19]
-                ang[ids] = buf[:, 19:22]
-            if cells:
-                dep[ids] = buf[:, w:w + 6]
+            o = 0
+            for x in self.ghost:
+                w = x.shape[1]
+                x[ids] = buf[:, o:o + w]
+                o += w
 
     def own_rows(self):
         """This rank's own bodies' and springs' rows (and the ground's,
@@ -412,6 +402,9 @@ class Leader:
         doms = local_domains(owner, model.spring_bodies, model.spring_slot, model.group_ptr,
                              model.phase_ptr, pairs, links)
         self.doms = doms
+        self.face_of = [None] * len(doms)
+        if model.contact is not None:
+            self.face_of = [local_contact(model, d)["face_of"] for d in doms]
         self.figures = summary(doms, model.n_springs)
         self.figures["method"] = self.method
         opt = Options.of(model)
@@ -462,10 +455,8 @@ class Leader:
         for q in range(1, self.comm.size):
             self.comm.send(cmd, dest=q, tag=_CMD)
         if send:
-            faces = [None] * len(self.doms)
-            if model.contact is not None:
-                faces = [local_contact(model, d)["face_of"] for d in self.doms]
-            rows = [state_rows(state, d, model.n_bodies, f) for d, f in zip(self.doms, faces)]
+            rows = [state_rows(state, d, model.n_bodies, f)
+                    for d, f in zip(self.doms, self.face_of)]
             self.local.load(self.comm.scatter(rows, root=0))
         step = self.local.steps(int(n_steps), int(state.step), stepping, laws)
         parts = self.comm.gather(self.local.own_rows(), root=0)
