@@ -37,8 +37,9 @@ def mpirun():
 
 def run_ranks(n, *args, cwd, threads=1):
     """python -m rbsm_dyn ARGS on n MPI processes (CompletedProcess)."""
+    # (mpi_yield_when_idle: the suite's other worker shares the cores)
     env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-               NUMBA_NUM_THREADS=str(threads))
+               OMPI_MCA_mpi_yield_when_idle="1", NUMBA_NUM_THREADS=str(threads))
     env.pop("RBSM_PROGRESS", None)
     cmd = [mpirun(), "--oversubscribe", "-n", str(n), sys.executable, "-m", "rbsm_dyn",
            *map(str, args), "--quiet"]

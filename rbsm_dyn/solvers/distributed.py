@@ -39,6 +39,7 @@ Not distributed yet (refused with P > 1, naming the reason): plane models,
 and the static, linear and modal solvers.  Rank 0 builds and holds the
 whole model (the distributed build of DESIGN.md §10 is to come).
 """
+import os
 import time
 
 import numpy as np
@@ -319,7 +320,11 @@ class LocalRun:
                 buf[:, o:o + w] = x[ids]
                 o += w
             reqs.append(self.comm.Isend(buf, dest=q, tag=_TAG))
-        MPI.Request.Waitall(reqs)
+        # wait giving the core away between tests: a busy-waiting rank
+        # (MPI's Waitall spins) on a machine with more runnable threads than
+        # cores takes the time its neighbour needs to finish the step
+        while not MPI.Request.Testall(reqs):
+            os.sched_yield()
         for q, (ids, buf) in self.recv.items():
             o = 0
             for x in self.ghost:
