@@ -149,17 +149,23 @@ def _run(case, model, args, threads, lock, notice=None):
     t0 = time.perf_counter()
     try:
         if case.solver.mode == "dynamic":
-            governor = stepper = None
+            governor = stepper = chunk = None
             if comm is not None:
-                from ..solvers.distributed import Leader
+                from ..solvers.distributed import CHUNK_SPRING_STEPS, Leader
                 stepper = Leader(comm).advance
+                if model.contact is None:
+                    # (with contact the chunks are the one-process ones: the
+                    # broad phase runs between chunks, and where it runs
+                    # shapes the pair list)
+                    chunk = max(1, int(CHUNK_SPRING_STEPS // max(model.n_springs, 1)))
             elif args.threads is None and getattr(case.solver, "threads", None) is None:
                 # the default count, kept right while the run steps (threads.py)
                 import numba
                 from ..threads import Governor
                 governor = Governor(model.n_springs, numba.config.NUMBA_NUM_THREADS)
             res = explicit.run(case, model, rec, max_steps=args.max_steps, progress=progress,
-                               restart=restart, governor=governor, stepper=stepper)
+                               restart=restart, governor=governor, stepper=stepper,
+                               chunk_steps=chunk)
             summary = (f"{res['steps']} steps, dt = {res['dt']:.4g} s "
                        f"(estimate {res['dt_estimate']:.4g} s)")
             if comm is not None:

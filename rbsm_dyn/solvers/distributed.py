@@ -71,6 +71,12 @@ SPRING_FIELDS = ("spring_state", "spring_dp", "spring_kappa", "spring_dmg", "spr
 #: and the Poisson correction's (N rows)
 CELL_FIELDS = ("cell_moment", "cell_sigma", "cell_dep")
 POISSON_CELL_FIELDS = ("cell_chi", "cell_wf")
+#: spring-point steps in a chunk between gathers (explicit.run's
+#: chunk_steps; one process takes 2e7): rank 0 gathers every rank's rows
+#: after each chunk (about 60 B a spring point of an inelastic model), so
+#: a chunk ten times longer keeps that below a few per cent of the steps;
+#: output frames still end a chunk
+CHUNK_SPRING_STEPS = 2.0e8
 _TAG = 17
 _CMD = 18
 #: a waiting rank polls for rank 0's next command at most this often [s]
