@@ -45,7 +45,7 @@ import time
 import numpy as np
 
 from ..domains import ragged
-from ..physics.arrays import (Bodies, BodyState, Loads, SpringHistory, Springs, Stepping,
+from ..physics.arrays import (Bodies, BodyState, SpringHistory, Stepping,
                               ViscousSprings)
 from ..physics.integrate import run_dynamic
 from .passes import VISCOUS_STATE, Options, model_arrays, parallel_arg, viscous_springs
