@@ -50,7 +50,7 @@ def test_given_values_win_and_units_convert():
     assert m.young == 30.0e9 and m.rupture.fracture_energy == 100.0
     assert m.rupture.tensile_strength == pytest.approx(0.3 * 40 ** (2 / 3) * 1e6, rel=1e-12)
     si, mm = concrete("fc: 48.0e6"), concrete("fc: 48.0", units="units: mm-N-s\n")
-    for key in ("young", "density", "poisson"):
+    for key in ("young", "density", "poisson", "ucs"):
         assert getattr(mm, key) == pytest.approx(getattr(si, key), rel=1e-12)
     assert mm.rupture.fracture_energy == pytest.approx(si.rupture.fracture_energy, rel=1e-12)
     assert math.isclose(mm.density, 2400.0, rel_tol=1e-12)
@@ -62,3 +62,55 @@ def test_bad_concrete_names_the_key(mat, words):
     with pytest.raises(CaseError) as err:
         concrete(mat)
     assert all(w in str(err.value) for w in words)
+
+
+ROCK = CASE.replace("c: {{model: concrete, {mat}}}", "r: {{model: rock, {mat}}}")
+
+
+def rock(mat, units=""):
+    L = 100 if units else 0.1
+    return load_case_text(ROCK.format(units=units, L=L, mat=mat)).materials["r"]
+
+
+@pytest.mark.parametrize("kind, mr, mi", [("granite", 425, 32), ("sandstone", 275, 17),
+                                          ("marble", 850, 9)])
+def test_rock_from_ucs(kind, mr, mi):
+    """E_i = MR σ_ci with the middle of Hoek & Diederichs' (2006) range;
+    the Hoek–Brown tensile strength of intact rock, which Hoek (2007,
+    "Practical Rock Engineering" §11) approximates by σ_ci/m_i (the
+    exact root is smaller by about 1/m_i² of it); K_IC = σ_t/6.88
+    MPa √m (Zhang 2002) and G = K_IC² (1 − ν²)/E (Irwin, plane strain)."""
+    m = rock(f"rock: {kind}, ucs: 100.0e6")
+    assert m.young == pytest.approx(mr * 100e6, rel=1e-12)
+    ft = m.rupture.tensile_strength
+    assert ft == pytest.approx(100e6 / mi, rel=1.05 / mi ** 2)
+    kic = ft / 1e6 / 6.88 * 1e6
+    assert m.rupture.fracture_energy == pytest.approx(kic ** 2 * (1 - 0.25 ** 2) / m.young,
+                                                      rel=1e-12)
+    assert m.poisson == 0.25 and 2000 < m.density < 3000
+    assert m.rupture.compressive_strength == 100e6
+
+
+def test_rock_by_its_constants_and_in_mm():
+    """mi and modulus_ratio stand for a rock not in the table (or override
+    one); the same rock in mm-N-s (ucs in MPa) has the same SI values."""
+    m = rock("ucs: 80.0e6, mi: 12, modulus_ratio: 500")
+    assert m.young == pytest.approx(500 * 80e6, rel=1e-12)
+    assert m.rupture.tensile_strength == pytest.approx(80e6 * (math.sqrt(148) - 12) / 2,
+                                                       rel=1e-12)
+    si, mm = rock("rock: basalt, ucs: 200.0e6"), rock("rock: basalt, ucs: 200.0", "units: mm-N-s\n")
+    for key in ("young", "density", "poisson"):
+        assert getattr(mm, key) == pytest.approx(getattr(si, key), rel=1e-12)
+    assert mm.rupture.fracture_energy == pytest.approx(si.rupture.fracture_energy, rel=1e-12)
+
+
+@pytest.mark.parametrize("mat, words", [
+    ("rock: granit, ucs: 1.0e8", ["materials.r.rock", "granite", "unknown rock"]),
+    ("rock: granite", ["materials.r", "needs ucs"]),
+    ("ucs: 1.0e8", ["materials.r", "mi", "modulus_ratio"]),
+    ("rock: granite, ucs: 150.0", ["materials.r.ucs", "1-400 MPa"]),
+    ("rock: granite, ucs: 1.0e8, fc: 4.0e7", ["materials.r.fc", "model: concrete"])])
+def test_bad_rock_names_the_key(mat, words):
+    with pytest.raises(CaseError) as err:
+        rock(mat)
+    assert all(w in str(err.value) for w in words), str(err.value)

@@ -56,12 +56,18 @@ class Viscoelastic(_Node):
 class Material(_Node):
     """Elastic constants, yield and rupture; ``model: concrete`` with ``fc``
     (the mean cylinder compressive strength f_cm) fills in those not given
-    from the fib Model Code 2010 (case/presets.py)."""
+    from the fib Model Code 2010, ``model: rock`` with ``ucs`` (σ_ci) and
+    ``rock`` (or ``mi`` and ``modulus_ratio``) from the Hoek–Brown
+    criterion and published ratios (case/presets.py)."""
     density: float = Field(gt=0)
     young: float = Field(gt=0)
     poisson: float = Field(ge=0, lt=0.5)
-    model: Optional[Literal["concrete"]] = None
+    model: Optional[Literal["concrete", "rock"]] = None
     fc: Optional[float] = Field(default=None, gt=0)
+    ucs: Optional[float] = Field(default=None, gt=0)
+    rock: Optional[str] = None
+    mi: Optional[float] = Field(default=None, gt=0)
+    modulus_ratio: Optional[float] = Field(default=None, gt=0)
     stiffness: Literal["calibrated", "kawai", "homogeneous"] = "calibrated"
     yield_: Optional[Yield] = Field(default=None, alias="yield")
     rupture: Optional[Rupture] = None

@@ -1,7 +1,10 @@
 """Materials given by their engineering values (issue 31): ``materials.NAME:
 {model: concrete, fc: 48.0e6}`` gets its density, Young's modulus,
 Poisson's ratio, tensile strength and fracture energy from the fib Model
-Code 2010 (fib Bulletin 65, Vol. 1, §5.1), each overridable by giving it.
+Code 2010 (fib Bulletin 65, Vol. 1, §5.1); ``{model: rock, rock: granite,
+ucs: 150.0e6}`` gets them from the intact rock's uniaxial compressive
+strength by the Hoek–Brown criterion and published ratios (``rock``
+below).  Each value is overridable by giving it.
 
 Applied to the raw case data before validation (like plane.lift_plane), in
 the file's units; the values filled in are kept as notes that `check` and
@@ -39,21 +42,67 @@ def concrete(fcm):
             "density": DENSITY, "compressive_strength": fcm}
 
 
-_SOURCE = {"compressive_strength": "f_cm, through the shear strength",
-           "young": "eq. 5.1-21", "poisson": "§5.1.7.3", "tensile_strength": "eq. 5.1-3",
-           "fracture_energy": "eq. 5.1-9", "density": "normal-weight concrete"}
+#: intact rock types: (modulus ratio MR = E_i/σ_ci, Hoek & Diederichs 2006,
+#: Int J Rock Mech Min Sci 43, Table 3 after Deere 1968: the middle of each
+#: range; Hoek–Brown m_i, Marinos & Hoek 2000 / Hoek 2007 "Practical Rock
+#: Engineering" Table 11.1: the middle; density [kg/m³], typical, taken)
+ROCKS = {
+    "granite": (425.0, 32.0, 2650.0), "granodiorite": (425.0, 29.0, 2700.0),
+    "diorite": (325.0, 25.0, 2800.0), "gabbro": (450.0, 27.0, 2950.0),
+    "andesite": (400.0, 25.0, 2600.0), "basalt": (350.0, 25.0, 2850.0),
+    "dolerite": (350.0, 16.0, 2900.0), "gneiss": (525.0, 28.0, 2700.0),
+    "quartzite": (375.0, 20.0, 2650.0), "marble": (850.0, 9.0, 2700.0),
+    "slate": (500.0, 7.0, 2750.0), "schist": (675.0, 12.0, 2750.0),
+    "sandstone": (275.0, 17.0, 2350.0), "siltstone": (375.0, 7.0, 2500.0),
+    "claystone": (250.0, 4.0, 2400.0), "shale": (200.0, 6.0, 2500.0),
+    "limestone": (700.0, 10.0, 2600.0), "dolomite": (425.0, 9.0, 2750.0),
+}
+UCS_RANGE = (1.0, 400.0)   # MPa: ISRM's "extremely weak" to beyond "extremely strong" intact rock
+ROCK_POISSON = 0.25        # Gercek 2007 (Int J Rock Mech Min Sci 44): most intact rocks 0.15-0.35; taken
+ZHANG_RATIO = 6.88         # σ_t [MPa] = 6.88 K_IC [MPa √m] (Zhang 2002, Int J Rock Mech Min Sci 39)
+
+
+def rock(ucs, mi, mr, density):
+    """{young, poisson, tensile_strength, fracture_energy, density,
+    compressive_strength} [SI] of an intact rock of uniaxial compressive
+    strength ucs [Pa]: E_i = MR σ_ci (Hoek & Diederichs 2006, eq. 3); the
+    uniaxial tensile strength of the Hoek–Brown criterion for intact rock
+    (s = 1, a = ½), σ_t = σ_ci (√(m_i² + 4) − m_i)/2 (Hoek & Brown 1997,
+    Int J Rock Mech Min Sci 34, with the sign of a strength); K_IC =
+    σ_t/6.88 (Zhang 2002) and G_f = K_IC² (1 − ν²)/E (Irwin, plane strain);
+    ν = 0.25 (taken)."""
+    ft = ucs * (math.sqrt(mi * mi + 4.0) - mi) / 2.0
+    young = mr * ucs
+    kic = ft / ZHANG_RATIO                     # Pa √m (the ratio is the same in MPa and MPa √m)
+    gf = kic * kic * (1.0 - ROCK_POISSON ** 2) / young
+    return {"young": young, "poisson": ROCK_POISSON, "tensile_strength": ft,
+            "fracture_energy": gf, "density": density, "compressive_strength": ucs}
+
+
+_SOURCE = {"concrete": {"compressive_strength": "f_cm, through the shear strength",
+                         "young": "eq. 5.1-21", "poisson": "§5.1.7.3",
+                         "tensile_strength": "eq. 5.1-3", "fracture_energy": "eq. 5.1-9",
+                         "density": "normal-weight concrete"},
+           "rock": {"compressive_strength": "σ_ci, through the shear strength",
+                    "young": "E_i = MR σ_ci, Hoek & Diederichs 2006", "poisson": "taken",
+                    "tensile_strength": "Hoek-Brown, m_i", "fracture_energy":
+                    "K_IC = σ_t/6.88 (Zhang 2002), G = K_IC² (1 - ν²)/E",
+                    "density": "typical of the rock"}}
 _DIMENSION = {"compressive_strength": "stress", "young": "stress", "tensile_strength": "stress",
               "fracture_energy": "energy/area", "density": "density"}
 _SI_UNIT = {"compressive_strength": "Pa", "young": "Pa", "tensile_strength": "Pa",
             "fracture_energy": "J/m²",
             "density": "kg/m³", "poisson": ""}
+#: the keys each preset takes beside ``model`` (the other's are refused)
+_OWN_KEYS = {"concrete": ("fc",), "rock": ("ucs", "rock", "mi", "modulus_ratio")}
 
 
 def expand_presets(data: dict, lines: dict, filename: str) -> list[str]:
-    """Fill in the values of every material with ``model: concrete`` that
-    the file does not give (in the file's units); returns one note per such
-    material naming the values derived and their clauses.  CaseError for a
-    preset without ``fc`` or an ``fc`` outside the Model Code's range."""
+    """Fill in the values of every material with a ``model`` (concrete,
+    rock) that the file does not give (in the file's units); returns one
+    note per such material naming the values derived and their sources.
+    CaseError naming the key for a preset without its strength, a strength
+    outside the relations' range, an unknown rock or another preset's key."""
     mats = data.get("materials")
     if not isinstance(mats, dict):
         return []
@@ -68,21 +117,18 @@ def expand_presets(data: dict, lines: dict, filename: str) -> list[str]:
         def fail(key, message, where=where):
             path = where + ((key,) if key else ())
             return CaseError(filename, _nearest_line(lines, path), path, message)
-        if mat["model"] != "concrete":
-            raise fail("model", f"unknown material model {mat['model']!r} (concrete)")
-        fc = mat.get("fc")
-        if fc is None:
-            raise fail(None, "model: concrete needs fc, the mean cylinder compressive "
-                             "strength f_cm [Pa; MPa in mm-N-s]")
-        if isinstance(fc, bool) or not isinstance(fc, (int, float)):
-            raise fail("fc", f"fc must be a number, not {fc!r}")
-        fcm = fc * factors.get("stress", 1.0)
-        lo, hi = FC_RANGE
-        if not lo * 1e6 <= fcm <= hi * 1e6:
-            raise fail("fc", f"fc = {_show(fc)} is f_cm = {fcm / 1e6:.4g} MPa, outside the "
-                             f"Model Code's {lo:g}-{hi:g} MPa (grades C12-C120); "
-                             "fc is in Pa (MPa in mm-N-s)")
-        values = concrete(fcm)
+        model = mat["model"]
+        if model not in _OWN_KEYS:
+            raise fail("model", f"unknown material model {model!r} (concrete, rock)")
+        for other, keys in _OWN_KEYS.items():
+            for key in keys:
+                if other != model and key in mat:
+                    raise fail(key, f"{key} belongs to model: {other}, not model: {model} "
+                                    f"(which takes {', '.join(_OWN_KEYS[model])})")
+        if model == "concrete":
+            fc, values, label = _concrete_values(mat, factors, fail)
+        else:
+            fc, values, label = _rock_values(mat, factors, fail)
         rupture = mat.get("rupture")
         derived = []
         for key in ("density", "young", "poisson"):
@@ -99,13 +145,60 @@ def expand_presets(data: dict, lines: dict, filename: str) -> list[str]:
             if "shear_strength" not in rupture and "compressive_strength" not in rupture \
                     and rupture.get("law", "mixed_mode") == "mixed_mode" \
                     and rupture.get("values", "material") == "material":
-                # the specimen fails at f_cm (compression_calibration.py)
+                # the specimen fails at f_c (compression_calibration.py)
                 rupture["compressive_strength"] = fc
                 derived.append("compressive_strength")
-        shown = ", ".join(f"{k} {_fmt(values[k], k)} ({_SOURCE[k]})" for k in derived)
-        notes.append(f"materials.{name}: concrete of f_cm = {fcm / 1e6:.4g} MPa by the fib "
-                     f"Model Code 2010: {shown or 'every value given'}")
+        shown = ", ".join(f"{k} {_fmt(values[k], k)} ({_SOURCE[model][k]})" for k in derived)
+        notes.append(f"materials.{name}: {label}: {shown or 'every value given'}")
     return notes
+
+
+def _strength(mat, key, factors, fail, needs, lo, hi, what):
+    """The preset's strength ``key`` in the file's units and in Pa, checked
+    against [lo, hi] MPa."""
+    value = mat.get(key)
+    if value is None:
+        raise fail(None, needs)
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise fail(key, f"{key} must be a number, not {value!r}")
+    si = value * factors.get("stress", 1.0)
+    if not lo * 1e6 <= si <= hi * 1e6:
+        raise fail(key, f"{key} = {_show(value)} is {si / 1e6:.4g} MPa, outside the "
+                        f"{lo:g}-{hi:g} MPa of {what}; {key} is in Pa (MPa in mm-N-s)")
+    return value, si
+
+
+def _concrete_values(mat, factors, fail):
+    fc, fcm = _strength(mat, "fc", factors, fail,
+                        "model: concrete needs fc, the mean cylinder compressive "
+                        "strength f_cm [Pa; MPa in mm-N-s]", *FC_RANGE,
+                        "the Model Code (grades C12-C120)")
+    return fc, concrete(fcm), f"concrete of f_cm = {fcm / 1e6:.4g} MPa by the fib Model Code 2010"
+
+
+def _rock_values(mat, factors, fail):
+    ucs, sigma = _strength(mat, "ucs", factors, fail,
+                           "model: rock needs ucs, the uniaxial compressive strength of the "
+                           "intact rock σ_ci [Pa; MPa in mm-N-s]", *UCS_RANGE, "the relations used")
+    kind = mat.get("rock")
+    names = ", ".join(sorted(ROCKS))
+    if kind is None and ("mi" not in mat or "modulus_ratio" not in mat):
+        raise fail(None, f"model: rock needs rock (one of {names}) or both mi (the "
+                         "Hoek-Brown m_i) and modulus_ratio (E/σ_ci)")
+    if kind is not None and kind not in ROCKS:
+        raise fail("rock", f"unknown rock {kind!r}; known: {names} (or give mi and "
+                           "modulus_ratio instead)")
+    mr, mi, density = ROCKS.get(kind, (None, None, 2650.0))
+    for key, low in (("mi", 1.0), ("modulus_ratio", 50.0)):
+        v = mat.get(key)
+        if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float))
+                              or not low <= v <= 2000.0):
+            raise fail(key, f"{key} must be a number in [{low:g}, 2000], not {v!r}")
+    mi = mat.get("mi", mi)
+    mr = mat.get("modulus_ratio", mr)
+    label = (f"{kind or 'rock'} of σ_ci = {sigma / 1e6:.4g} MPa (m_i {_show(mi)}, "
+             f"E/σ_ci {_show(mr)})")
+    return ucs, rock(sigma, mi, mr, density), label
 
 
 def _fmt(v, key):

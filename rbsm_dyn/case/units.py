@@ -30,6 +30,7 @@ DIMENSIONS: dict[tuple[type, str], str] = {
     (Material, "density"): "density",
     (Material, "young"): "stress",
     (Material, "fc"): "stress",
+    (Material, "ucs"): "stress",
     (Yield, "stress"): "stress",
     (Yield, "cohesion"): "stress",
     (Yield, "tension"): "stress",
