@@ -25,7 +25,7 @@ import numpy as np
 
 import rbsm_dyn
 from rbsm_dyn.__main__ import main
-from rbsm_dyn.fracture_calibration import tension_specimen
+from rbsm_dyn.fracture_calibration import VORONOI_FRACTURE, tension_specimen
 
 FT = 3.0e6
 
@@ -39,10 +39,10 @@ def run(text, tmp):
     return rbsm_dyn.open_history(out)
 
 
-def measure(beta, seed, notch, cells_across, tmp, plane=False):
+def measure(beta, seed, notch, cells_across, tmp, plane=False, poisson=0.0):
     text, area, gf = tension_specimen(cell=0.002, cells_across=cells_across, notch=notch,
                                       tensile_strength=FT, beta=beta, values="spring",
-                                      seed=seed, plane=plane)
+                                      seed=seed, plane=plane, poisson=poisson)
     t = time.time()
     h = run(text, tmp)
     ob = h.observables
@@ -63,6 +63,10 @@ def main_(argv=None):
                    help="the plane-stress specimens (plane Voronoi: PLANE_VORONOI_FRACTURE)")
     p.add_argument("--notched-only", action="store_true",
                    help="measure F_G only (F_T scatters by ±1 %%: two seeds suffice)")
+    p.add_argument("--tension-only", action="store_true",
+                   help="measure F_T only (β then maps with the ν = 0 table's F_G)")
+    p.add_argument("--poisson", type=float, default=0.0,
+                   help="the material's ν (the F_T of VORONOI_TENSION_POISSON)")
     a = p.parse_args(argv)
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
@@ -70,14 +74,19 @@ def main_(argv=None):
             ft, fg = [], []
             for seed in a.seeds:
                 d = (dict(peak=np.nan, balance=np.nan, wall=0.0) if a.notched_only
-                     else measure(beta, seed, 0.0, a.cells_across, tmp, a.plane))
-                n = measure(beta, seed, 0.5, a.cells_across, tmp, a.plane)
+                     else measure(beta, seed, 0.0, a.cells_across, tmp, a.plane, a.poisson))
+                n = (dict(wf=np.nan, balance=np.nan, wall=0.0) if a.tension_only
+                     else measure(beta, seed, 0.5, a.cells_across, tmp, a.plane, a.poisson))
                 ft.append(d["peak"])
                 fg.append(n["wf"])
                 print(f"beta_s {beta:5.2f} seed {seed}: F_T {d['peak']:.3f} (balance "
                       f"{d['balance']:.4f}, {d['wall']:.0f} s)  F_G {n['wf']:.3f} (balance "
                       f"{n['balance']:.4f}, {n['wall']:.0f} s)", flush=True)
             FT_, FG_ = np.mean(ft), np.mean(fg)
+            if a.tension_only:      # F_G of the ν = 0 table at this β_s
+                t = VORONOI_FRACTURE
+                bs = t[:, 0] * t[:, 1] ** 2 / t[:, 2]
+                FG_ = float(np.interp(np.log(beta), np.log(bs), t[:, 2]))
             rows.append((beta * FG_ / FT_ ** 2, FT_, FG_, np.std(ft), np.std(fg)))
     print("\n    # beta, F_T, F_G      (± over seeds: F_T, F_G)")
     for r in rows:

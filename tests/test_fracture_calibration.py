@@ -60,14 +60,19 @@ def test_notched_specimen_dissipates_gf_per_projected_area(run_case, cell):
     assert np.mean(dissipated) == pytest.approx(GF, rel=0.05)
 
 
-def test_direct_tension_strength_is_ft(run_case):
+@pytest.mark.parametrize("poisson, beta", [(0.0, 3.0), (0.2, 20.0), (0.3, 10.0)])
+def test_direct_tension_strength_is_ft(run_case, poisson, beta):
     """A prism in uniaxial tension carries at most f_t (peak reaction over
-    the section) within 5 %; the energy balance closes within 1 %."""
+    the section) within 5 %; the energy balance closes within 1 %.  At ν =
+    0.2 (α = k_s/k_n = 0.27) and a concrete's brittleness the ν = 0 ratio
+    gave 0.93 f_t (issue 31): F_T is calibrated per α, and with the Poisson
+    correction (ν = 0.3) per ν (fracture_calibration.VORONOI_TENSION)."""
     peak = []
+    gf = beta * 0.002 * FT ** 2 / E
     for seed in FT_SEEDS:
         text, area, gf = tension_specimen(cell=0.002, cells_across=round(W / 0.002), notch=0.0,
-                                          young=E, tensile_strength=FT, fracture_energy=GF,
-                                          seed=seed)
+                                          young=E, tensile_strength=FT, fracture_energy=gf,
+                                          seed=seed, poisson=poisson)
         h = run_case(text)
         peak.append(np.abs(h.observables["F"]).max() / W ** 2)
         assert balance_error(h) <= 1e-2

@@ -32,6 +32,20 @@ def elastic_law_row():
     return row
 
 
+def _spring_ratio(mat, mesh_kind):
+    """(α = k_s/k_n, ν if the Poisson correction is on else None) of a
+    material's 3D Voronoi springs, which the tensile strength's calibration
+    depends on; (None, None) for other meshes or a ν no rule reaches
+    (refused elsewhere)."""
+    if mesh_kind != "voronoi":
+        return None, None
+    try:
+        _, alpha, lam_aux = stiffness_rule(mat.stiffness, mesh_kind, mat.young, mat.poisson)
+    except ValueError:
+        return None, None
+    return alpha, (mat.poisson if lam_aux > 0.0 else None)
+
+
 def material_law_row(mat, mesh_kind="voronoi", cell_size=None):
     """law_params row of a case material (physics/laws/__init__.py columns).
     A broken face is a contact with Coulomb friction `friction` (default 0).
@@ -60,8 +74,9 @@ def material_law_row(mat, mesh_kind="voronoi", cell_size=None):
         else:
             f_t, g_f = 1.0, 1.0
             if r.values == "material":
+                alpha, aux_nu = _spring_ratio(mat, mesh_kind)
                 f_t, g_f = fracture_ratios(mesh_kind, mat.young, r.fracture_energy,
-                                           r.tensile_strength, cell_size)
+                                           r.tensile_strength, cell_size, alpha, aux_nu)
             row[P_RUPT] = RUPTURE_KINDS[r.law or "mixed_mode"]
             row[P_FT] = r.tensile_strength / f_t
             row[P_GF] = r.fracture_energy / g_f
