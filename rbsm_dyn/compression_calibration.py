@@ -44,19 +44,31 @@ VORONOI_COMPRESSION = np.array([
 
 DEFAULT_RATIO = 2.0      # f_s/f_t without a compressive strength (docs/case_file.md)
 
+# The table's f_t is the material's: its springs had f_t/F_T with F_T =
+# 1.280, the ν = 0 direct-tension ratio then used for ν = 0.2 (held at
+# β = 9.5 and above).  The strength of a specimen scales with its springs'
+# f_s = r f_t/F_T, so a material whose F_T differs (fracture_calibration.
+# VORONOI_TENSION: 1.18 at ν = 0.2 and the table's brittleness) reads the
+# table at f_c/f_t × F_T/1.280.
+TABLE_TENSION_RATIO = 1.280
+TABLE_BRITTLENESS = 90.0     # β = l_ch/Δ of the table's specimens (76-107)
 
-def shear_ratio(mesh_kind, compressive_strength, tensile_strength):
+
+def shear_ratio(mesh_kind, compressive_strength, tensile_strength,
+                tension_ratio=TABLE_TENSION_RATIO):
     """(r = f_s/f_t, note or None) for a material of compressive strength
     f_c and tensile strength f_t [Pa] on a mesh kind: interpolated in the
     measured table (VORONOI_COMPRESSION), its ends beyond it (with a note);
-    DEFAULT_RATIO with a note on other mesh kinds."""
+    DEFAULT_RATIO with a note on other mesh kinds.  `tension_ratio`: the
+    material's F_T at the table's brittleness (its springs' f_t = f_t/F_T)."""
     ratio = compressive_strength / tensile_strength
     if mesh_kind != "voronoi":
         return DEFAULT_RATIO, (
             f"compressive_strength is not a failure criterion on {mesh_kind} meshes (only "
             f"Voronoi cells are calibrated: docs/calibration.md, \"Compression\"); the shear "
             f"strength stays {DEFAULT_RATIO:g} f_t")
-    r_tab, c_tab = VORONOI_COMPRESSION[:, 0], VORONOI_COMPRESSION[:, 1]
+    r_tab = VORONOI_COMPRESSION[:, 0]
+    c_tab = VORONOI_COMPRESSION[:, 1] * (TABLE_TENSION_RATIO / tension_ratio)
     r = float(np.interp(ratio, c_tab, r_tab))
     note = None
     if ratio > c_tab[-1]:

@@ -112,12 +112,19 @@ def fracture_ratios(mesh_kind, young, fracture_energy, tensile_strength, cell_si
     data = VORONOI_FRACTURE if mesh_kind == "voronoi" else PLANE_VORONOI_FRACTURE
     x = np.log(beta)
     f_t, f_g = _log_interp(x, data[:, [0, 1]]), _log_interp(x, data[:, [0, 2]])
-    if mesh_kind == "voronoi":
-        if aux_poisson is not None:
-            f_t = _table_interp(x, aux_poisson, VORONOI_TENSION_AUX)
-        elif alpha is not None:
-            f_t = _table_interp(x, alpha, VORONOI_TENSION)
+    if mesh_kind == "voronoi" and (alpha is not None or aux_poisson is not None):
+        f_t = voronoi_tension_ratio(beta, alpha, aux_poisson)
     return f_t, f_g
+
+
+def voronoi_tension_ratio(beta, alpha, aux_poisson=None):
+    """F_T of the 3D Voronoi lattice at brittleness β and spring ratio α
+    (VORONOI_TENSION), or at ν = `aux_poisson` with the Poisson correction
+    (VORONOI_TENSION_AUX)."""
+    x = np.log(beta)
+    if aux_poisson is not None:
+        return _table_interp(x, aux_poisson, VORONOI_TENSION_AUX)
+    return _table_interp(x, alpha, VORONOI_TENSION)
 
 
 def _table_interp(x, key, tables):

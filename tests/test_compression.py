@@ -14,8 +14,10 @@ import pytest
 
 from rbsm_dyn.__main__ import main
 from rbsm_dyn.case import load_case_text
-from rbsm_dyn.compression_calibration import (VORONOI_COMPRESSION, compression_specimen,
-                                              shear_ratio)
+from rbsm_dyn.calibration import stiffness_rule
+from rbsm_dyn.compression_calibration import (TABLE_BRITTLENESS, VORONOI_COMPRESSION,
+                                              compression_specimen, shear_ratio)
+from rbsm_dyn.fracture_calibration import voronoi_tension_ratio
 
 FC = 40.0e6
 WIDTH = 0.04
@@ -129,6 +131,8 @@ def test_check_prints_the_derived_shear_strength_and_rate_factors(tmp_path, caps
     out = capsys.readouterr().out
     ft = load_case_text(compression_specimen(cell=0.01)).materials["concrete"] \
         .rupture.tensile_strength
-    r, _ = shear_ratio("voronoi", FC, ft)
+    # the table read at the springs' F_T of ν = 0.2 (k_s/k_n from the elastic calibration)
+    _, alpha, _ = stiffness_rule("calibrated", "voronoi", 30e9, 0.2)
+    r, _ = shear_ratio("voronoi", FC, ft, voronoi_tension_ratio(TABLE_BRITTLENESS, alpha))
     assert f"gives shear_strength {r:.3g} f_t" in out
     assert "1 /s: × 1.28 in tension, × 1.16 in compression" in out

@@ -6,8 +6,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..calibration import plane_stiffness_rule, stiffness_rule
-from ..compression_calibration import DEFAULT_RATIO, shear_ratio
-from ..fracture_calibration import fracture_ratios
+from ..compression_calibration import (DEFAULT_RATIO, TABLE_BRITTLENESS, TABLE_TENSION_RATIO,
+                                       shear_ratio)
+from ..fracture_calibration import fracture_ratios, voronoi_tension_ratio
 from ..physics.laws import (CONTACT_OFF, CRITERIA, N_PARAMS, P_COH, P_CRIT, P_EPSCR, P_FT,
                             P_GF, P_GS, P_MODEL, P_MU, P_RATE, P_RS, P_RUPT, P_SLOW, P_SY,
                             P_TANPHI, P_TENSION, RUPTURE_KINDS)
@@ -44,6 +45,15 @@ def _spring_ratio(mat, mesh_kind):
     except ValueError:
         return None, None
     return alpha, (mat.poisson if lam_aux > 0.0 else None)
+
+
+def _table_tension_ratio(mat, mesh_kind):
+    """The material's F_T at the compression table's brittleness
+    (compression_calibration.shear_ratio's `tension_ratio`)."""
+    alpha, aux_nu = _spring_ratio(mat, mesh_kind)
+    if alpha is None:
+        return TABLE_TENSION_RATIO
+    return voronoi_tension_ratio(TABLE_BRITTLENESS, alpha, aux_nu)
 
 
 def material_law_row(mat, mesh_kind="voronoi", cell_size=None):
@@ -85,7 +95,8 @@ def material_law_row(mat, mesh_kind="voronoi", cell_size=None):
                 ratio = r.shear_strength / r.tensile_strength
             elif r.compressive_strength is not None:
                 # the ratio whose lattice fails at f_c (compression_calibration.py)
-                ratio, _ = shear_ratio(mesh_kind, r.compressive_strength, r.tensile_strength)
+                ratio, _ = shear_ratio(mesh_kind, r.compressive_strength, r.tensile_strength,
+                                       _table_tension_ratio(mat, mesh_kind))
             row[P_RS] = ratio
             g_s = r.fracture_energy if r.shear_fracture_energy is None \
                 else r.shear_fracture_energy
@@ -110,7 +121,8 @@ def compression_notes(case, parts, body_part, body_material, body_rigid):
         prefix = "" if case.plane is None else "plane_"
         kinds = sorted({prefix + parts[k].mesh.kind for k in used})
         for kind in kinds:
-            _, note = shear_ratio(kind, r.compressive_strength, r.tensile_strength)
+            _, note = shear_ratio(kind, r.compressive_strength, r.tensile_strength,
+                                  _table_tension_ratio(mat, kind))
             if note:
                 notes.append(f"materials.{name}.rupture.compressive_strength: {note}")
     return notes
@@ -134,7 +146,8 @@ def law_notes(case):
                  if (p.material or names[0]) == name or case.groups}
         if r.compressive_strength is not None and r.shear_strength is None \
                 and "voronoi" in kinds and case.plane is None:
-            ratio, _ = shear_ratio("voronoi", r.compressive_strength, r.tensile_strength)
+            ratio, _ = shear_ratio("voronoi", r.compressive_strength, r.tensile_strength,
+                                   _table_tension_ratio(mat, "voronoi"))
             fc = r.compressive_strength
             notes.append(f"materials.{name}: compressive_strength {fc / 1e6:.4g}"
                          f" MPa = {fc / r.tensile_strength:.3g} f_t gives "
