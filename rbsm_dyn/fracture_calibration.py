@@ -67,10 +67,11 @@ PLANE_VORONOI_FRACTURE = np.array([
 # between them), β = β_s F_G/F_T² with F_G of VORONOI_FRACTURE (measured at
 # ν = 0 only); benchmarks/calibrate_fracture.py --tension-only --poisson ν,
 # 2026-11-28.  F_T is interpolated in α and log β, held beyond the ends.
+ALPHA_NU0 = 1.0141       # k_s/k_n of the calibrated Voronoi springs at ν = 0 (calibration.py)
 VORONOI_TENSION = {
     # α: [[β, F_T], ...]
-    1.0141: np.array([[1.83, 0.999], [2.83, 1.089], [3.80, 1.140], [9.48, 1.280],
-                      [25.4, 1.355], [77.5, 1.416]]),
+    # ν = 0: VORONOI_FRACTURE's (β, F_T) and two rows beyond its end
+    ALPHA_NU0: np.vstack([VORONOI_FRACTURE[:, :2], [[25.4, 1.355], [77.5, 1.416]]]),
     0.5815: np.array([[2.37, 0.878], [4.40, 1.060], [11.0, 1.189], [28.9, 1.269],
                       [88.0, 1.329]]),
     0.2662: np.array([[3.23, 0.752], [4.36, 1.065], [13.6, 1.068], [35.6, 1.144],
@@ -104,17 +105,17 @@ def fracture_ratios(mesh_kind, young, fracture_energy, tensile_strength, cell_si
     uniformly (Griffith test in tests/test_fracture.py).  `plane_voronoi`:
     the plane Voronoi lattice's own table (PLANE_VORONOI_FRACTURE).
     Voronoi: F_T from VORONOI_TENSION at the springs' α = k_s/k_n (None:
-    the ν = 0 table's), or VORONOI_TENSION_AUX at ν = `aux_poisson` with the
-    Poisson correction."""
+    ν = 0's), or VORONOI_TENSION_AUX at ν = `aux_poisson` with the Poisson
+    correction."""
     if mesh_kind not in ("voronoi", "plane_voronoi"):
         return 1.0, 1.0
     beta = brittleness(young, fracture_energy, tensile_strength, cell_size)
     data = VORONOI_FRACTURE if mesh_kind == "voronoi" else PLANE_VORONOI_FRACTURE
     x = np.log(beta)
-    f_t, f_g = _log_interp(x, data[:, [0, 1]]), _log_interp(x, data[:, [0, 2]])
-    if mesh_kind == "voronoi" and (alpha is not None or aux_poisson is not None):
-        f_t = voronoi_tension_ratio(beta, alpha, aux_poisson)
-    return f_t, f_g
+    f_g = _log_interp(x, data[:, [0, 2]])
+    if mesh_kind == "plane_voronoi":
+        return _log_interp(x, data[:, [0, 1]]), f_g
+    return voronoi_tension_ratio(beta, ALPHA_NU0 if alpha is None else alpha, aux_poisson), f_g
 
 
 def voronoi_tension_ratio(beta, alpha, aux_poisson=None):
