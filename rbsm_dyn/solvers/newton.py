@@ -90,6 +90,7 @@ LINE_SEARCH = (0.5, 4.0)   # bounds of the line-search step
 GEOMETRIC_ANGLE = 1e-2    # rotation [rad] beyond which the geometric stiffness is added
 REF_FLOOR = 1e-3        # the force scale's floor, a share of the largest met (Newton.reference)
 TANGENT_BACKTRACK = 2   # halvings of a tangent step that raised the residual before the secant
+WILD_ANGLE = 0.5        # rotation [rad] of one body in one correction taken for divergence
 DIVERGED_RATIO = 1e2    # residual ratio taken for a diverged iteration (the increment is cut)
 GMRES_MAX = 60          # GMRES iterations (no restart) before refactorising
 CG_MAX = 30             # CG iterations before the preconditioner is refactorised
@@ -332,6 +333,11 @@ class _Full:
         at full amplitude."""
         return self.Kfp @ self.nt.Up[self.nt.disp]
 
+    def solve_pair(self, r):
+        """(K⁻¹ r, K⁻¹ (F − K_fp U_p)) on the free DOFs; None if singular."""
+        X = self.solve(np.column_stack([r, self.nt.F[self.nt.free] - self.prescribed()]))
+        return None if X is None else (X[:, 0], X[:, 1])
+
 
 class _LowRank:
     """Solves with the iteration matrix K = K0 + ΔK of a small-rotation
@@ -378,6 +384,10 @@ class _LowRank:
         f = nt.free
         self.lu = _factorize(sp.csr_matrix(K[f][:, f]), nt.order, True)
         self.kfp_up = K[f][:, nt.disp] @ nt.Up[nt.disp]
+        # K0⁻¹ (F − K0_fp U_p), the reference load's response in K0, once
+        # (solve_pair)
+        self.g0 = nt.F[f] - self.kfp_up
+        self.y0 = self.lu.solve(self.g0)
         self.free_pos = np.full(6 * nt.n, -1)
         self.n_free = int(f.sum())
         self.free_pos[f] = np.arange(self.n_free)
@@ -488,13 +498,27 @@ class _LowRank:
         E[self.pos] = v
         return Y - self.lu.solve(E)
 
-    def prescribed(self):
-        """K_fp U_p (as _Full.prescribed)."""
+    def solve_pair(self, r):
+        """(K⁻¹ r, K⁻¹ g), g = F − K_fp U_p the reference load's column
+        (indirect control), in two solves with K0 instead of solve()'s
+        four columns: with a = A_up (ΔK's prescribed forces, on D), g = g0
+        − P a and K⁻¹ g = y0 − K0⁻¹ P (a + v₂), y0 = K0⁻¹ g0 kept from the
+        factorisation, v₂ the capacitance solution of A (y0_D − Z a)."""
+        y1 = self.lu.solve(r)
         if self.A is None:
-            return self.kfp_up
-        out = self.kfp_up.copy()
-        out[self.pos] += self.A_up
-        return out
+            return y1, self.y0.copy()
+        pos = self.pos
+        a = self.A_up
+        g = self.g0.copy()
+        g[pos] -= a
+        R = self.A @ np.column_stack([y1[pos], self.y0[pos] - self.Z @ a])
+        v = self._capacitance(R, CAPACITANCE_RTOL * np.array([np.linalg.norm(r),
+                                                              np.linalg.norm(g)]))
+        E = np.zeros((self.n_free, 2))
+        E[pos, 0] = v[:, 0]
+        E[pos, 1] = a + v[:, 1]
+        W = self.lu.solve(E)
+        return y1 - W[:, 0], self.y0 - W[:, 1]
 
 
 @nb.njit(cache=True)
@@ -1142,6 +1166,17 @@ def _increment(nt, state, lam, goal, plan, tol, controlled):
             lam += dlam
         if not np.all(np.isfinite(dU)):
             return False, lam, k, ratio
+        if k > 1 and nt.n and np.max(np.linalg.norm(dU.reshape(nt.n, 6)[:, 3:], axis=1)) > \
+                WILD_ANGLE:
+            # a wild iterate: a correction that turns a body by more than
+            # WILD_ANGLE, far past where the linearised rotation means
+            # anything (a near-singular matrix on a contact set that has just
+            # opened: the pin of three-point bending, its faces all open in
+            # one iterate, thrown by 2.3 rad where the predictor turned it by
+            # 1.5e-4; the iteration went on for five more steps, factorising
+            # a matrix with the geometric stiffness at each, 5-12 s, before
+            # the residual overflowed): cut now
+            return False, lam, k, ratio
         if nt.tangent and nt.use_tangent and k > 1:
             # (only a step of the damage tangent is undone: friction's and
             # plasticity's tangents stay, and undoing their step would
@@ -1160,10 +1195,10 @@ def _direction(nt, lin, r, controlled):
     when the solve fails."""
     free = nt.free
     if controlled:
-        B = np.column_stack([r[free], nt.F[free] - lin.prescribed()])
+        X = lin.solve_pair(r[free])
+        X = None if X is None else np.column_stack(X)
     else:
-        B = r[free][:, None]
-    X = lin.solve(B)
+        X = lin.solve(r[free][:, None])
     if X is None or not np.all(np.isfinite(X)):
         return None
     dU = np.zeros(6 * nt.n)
