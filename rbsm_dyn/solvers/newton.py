@@ -103,7 +103,11 @@ LOWRANK_MAX = 3000      # DOFs of the changed springs' bodies before K0 is refac
 # 0.89 s against 7.3 ms on the 2 866-cell one of benchmarks/quasi_static.py);
 # a wild iterate that changes thousands of springs took 10-15 s of growth
 GROW_MAX_COLUMNS = 120
-STALL_IT = 8            # iterations without a better residual after which an increment is cut
+# iterations without a better residual after which an increment is cut (8
+# before 2026-11-28; 6: three-point bending 29 -> 25 s, the notched beam
+# of benchmarks/quasi_static.py under CMOD control 77 -> 72 s, under plain
+# displacement 82 -> 86 s, all on the same path)
+STALL_IT = 6
 # the fall of the best residual STALL_IT iterations must bring: any (0.5,
 # a halving, cut increments that were converging slowly: the plain-
 # displacement notched beam 164 s against 129 s, three-point bending the same)
@@ -817,7 +821,18 @@ def probe_functional(model, state, plan):
 
 
 def run(case, model, recorder, *, max_steps=None, progress=None):
-    """Solve the static case by Newton iterations (module docstring)."""
+    """Solve the static case by Newton iterations (module docstring), BLAS
+    on one thread: the dense capacitance solves (_LowRank._capacitance)
+    round differently on two threads, and the path near a peak depends on
+    it (three-point bending: 283 iterations on two BLAS threads, 268 on
+    one), so a run's answer would depend on the machine's cores; one
+    thread is also faster at these sizes (31 s against 25 s)."""
+    from threadpoolctl import threadpool_limits
+    with threadpool_limits(limits=1, user_api="blas"):
+        return _run(case, model, recorder, max_steps=max_steps, progress=progress)
+
+
+def _run(case, model, recorder, *, max_steps=None, progress=None):
     sol = case.solver
     m = model
     try:
