@@ -25,7 +25,8 @@ from ..physics.laws import BROKEN
 from ..physics.rotation import quat_matrix_np
 from ..physics.viscous import viscous_pass
 from .explicit import RunFailed, load_amplitude
-from .newton import MAX_CUTS, NEWTON_MAX_IT, Newton, _increment, _restore, _save, _set_reactions
+from .newton import (MAX_CUTS, NEWTON_MAX_IT, Newton, _increment, _restore, _save,
+                     _set_reactions, one_blas_thread)
 from .passes import (Options, body_state, model_arrays, parallel_arg, step_factors,
                      viscous_springs)
 from .statics import record_frame
@@ -108,7 +109,13 @@ class TimeNewton(Newton):
 
 
 def run(case, model, recorder, *, max_steps=None, progress=None):
-    """Solve the static case at the instants of solver.time (module docstring)."""
+    """Solve the static case at the instants of solver.time (module
+    docstring), BLAS on one thread as newton.run."""
+    with one_blas_thread():
+        return _run(case, model, recorder, max_steps=max_steps, progress=progress)
+
+
+def _run(case, model, recorder, *, max_steps=None, progress=None):
     sol = case.solver
     m = model
     try:

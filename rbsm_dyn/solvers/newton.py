@@ -827,9 +827,15 @@ def run(case, model, recorder, *, max_steps=None, progress=None):
     it (three-point bending: 283 iterations on two BLAS threads, 268 on
     one), so a run's answer would depend on the machine's cores; one
     thread is also faster at these sizes (31 s against 25 s)."""
-    from threadpoolctl import threadpool_limits
-    with threadpool_limits(limits=1, user_api="blas"):
+    with one_blas_thread():
         return _run(case, model, recorder, max_steps=max_steps, progress=progress)
+
+
+def one_blas_thread():
+    """A context in which BLAS runs on one thread (run's docstring: the
+    Newton iteration's answer then does not depend on the machine)."""
+    from threadpoolctl import threadpool_limits
+    return threadpool_limits(limits=1, user_api="blas")
 
 
 def _run(case, model, recorder, *, max_steps=None, progress=None):
