@@ -338,9 +338,8 @@ class _Full:
         return self.Kfp @ self.nt.Up[self.nt.disp]
 
     def solve_pair(self, r):
-        """(K⁻¹ r, K⁻¹ (F − K_fp U_p)) on the free DOFs; None if singular."""
-        X = self.solve(np.column_stack([r, self.nt.F[self.nt.free] - self.prescribed()]))
-        return None if X is None else (X[:, 0], X[:, 1])
+        """K⁻¹ [r, F − K_fp U_p] (free DOFs × 2); None if singular."""
+        return self.solve(np.column_stack([r, self.nt.F[self.nt.free] - self.prescribed()]))
 
 
 class _LowRank:
@@ -387,10 +386,9 @@ class _LowRank:
             K = (K + nt.K_aux).tocsr()
         f = nt.free
         self.lu = _factorize(sp.csr_matrix(K[f][:, f]), nt.order, True)
-        self.kfp_up = K[f][:, nt.disp] @ nt.Up[nt.disp]
         # K0⁻¹ (F − K0_fp U_p), the reference load's response in K0, once
         # (solve_pair)
-        self.g0 = nt.F[f] - self.kfp_up
+        self.g0 = nt.F[f] - K[f][:, nt.disp] @ nt.Up[nt.disp]
         self.y0 = self.lu.solve(self.g0)
         self.free_pos = np.full(6 * nt.n, -1)
         self.n_free = int(f.sum())
@@ -503,14 +501,14 @@ class _LowRank:
         return Y - self.lu.solve(E)
 
     def solve_pair(self, r):
-        """(K⁻¹ r, K⁻¹ g), g = F − K_fp U_p the reference load's column
+        """K⁻¹ [r, g] (free DOFs × 2), g = F − K_fp U_p the reference load's column
         (indirect control), in two solves with K0 instead of solve()'s
         four columns: with a = A_up (ΔK's prescribed forces, on D), g = g0
         − P a and K⁻¹ g = y0 − K0⁻¹ P (a + v₂), y0 = K0⁻¹ g0 kept from the
         factorisation, v₂ the capacitance solution of A (y0_D − Z a)."""
         y1 = self.lu.solve(r)
         if self.A is None:
-            return y1, self.y0.copy()
+            return np.column_stack([y1, self.y0])
         pos = self.pos
         a = self.A_up
         g = self.g0.copy()
@@ -522,7 +520,7 @@ class _LowRank:
         E[pos, 0] = v[:, 0]
         E[pos, 1] = a + v[:, 1]
         W = self.lu.solve(E)
-        return y1 - W[:, 0], self.y0 - W[:, 1]
+        return np.column_stack([y1, self.y0]) - W
 
 
 @nb.njit(cache=True)
@@ -1217,7 +1215,6 @@ def _direction(nt, lin, r, controlled):
     free = nt.free
     if controlled:
         X = lin.solve_pair(r[free])
-        X = None if X is None else np.column_stack(X)
     else:
         X = lin.solve(r[free][:, None])
     if X is None or not np.all(np.isfinite(X)):
