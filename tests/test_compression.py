@@ -92,6 +92,40 @@ def test_uniaxial_compression_fails_at_fc(run_case, cell):
     assert np.abs(balance).max() <= 1e-2 * ob["external_work"].max()
 
 
+@pytest.mark.parametrize("cell", [WIDTH / 6, WIDTH / 8])
+@pytest.mark.parametrize("share", [0.1, 0.3])
+def test_triaxial_compression_follows_richart(run_case, cell, share):
+    """The prism under a lateral pressure σ_3 of 0.1 and 0.3 f_c (a triaxial
+    cell's fluid: `pressure` in mode dynamic follows its faces by default)
+    fails at Richart, Brandtzaeg & Brown's (1928) f_cc = f_c + 4.1 σ_3
+    within the issue's 15 % (measured −10 … +6 %).  The pressure turns
+    no cell by itself, so the cells' mean turn about the axis stays below
+    0.1 rad to the end (0.6 % strain; measured 0.01-0.02 rad, the broken
+    prism's pieces), and at 0.3 f_c the prism still carries 0.4 f_cc
+    there.  A dead pressure spun the prism on its frictionless platens
+    from round-off (its turn grew ×3 every 0.04 % of strain, to 1 rad): at
+    0.3 f_c it collapsed to zero load, and on 7 mm cells at 0.5 /s the
+    spin came before the peak (60 MPa, −30 %).  Energy balance within 1 %
+    of the work."""
+    from rbsm_dyn.physics.rotation import quat_mul_np
+    h = run_case(compression_specimen(cell=cell, width=WIDTH, fc=FC, rate=2.0, frames=150,
+                                      confinement=share * FC))
+    ob = h.observables
+    stress = -np.asarray(ob["F"]) / WIDTH ** 2
+    fcc = FC + 4.1 * share * FC
+    assert stress.max() == pytest.approx(fcc, rel=0.15)
+    if share == 0.3:
+        assert stress[-1] > 0.4 * fcc
+    q0 = h.static["particles/bodies/reference_orientation"]
+    q = quat_mul_np(h.orientation[-1], q0 * np.array([1.0, -1.0, -1.0, -1.0]))
+    q *= np.where(q[:, :1] < 0.0, -1.0, 1.0)          # the rotation's quaternion with w ≥ 0
+    turn = 2.0 * np.arctan2(q[:, 3], q[:, 0])
+    assert abs(np.mean(turn)) < 0.1
+    balance = (ob["kinetic"] + ob["strain"] + ob["plastic"] + ob["fracture"] + ob["damping"]
+               - ob["external_work"])
+    assert np.abs(balance).max() <= 1e-2 * ob["external_work"].max()
+
+
 def test_cube_case_is_stronger_than_the_cylinder(run_case):
     """cases/cube_compression.yaml as shipped: the cube on platens of
     friction 0.2 fails at EN 206's f_ck,cube/f_ck,cyl = 1.20-1.25 × f_c

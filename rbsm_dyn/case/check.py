@@ -388,7 +388,7 @@ def _check(case: Case) -> None:
             if (load.pressure is None) == (load.traction is None):
                 raise err(path, "give pressure or traction, not both" if load.pressure
                           is not None else "required key missing: pressure or traction")
-            if load.follower and case.solver.mode == "static":
+            if load.follower is True and case.solver.mode == "static":
                 raise err(path + ("follower",), "a follower load needs solver.mode dynamic "
                           "(or linear, where it keeps its reference direction); static "
                           "mode takes dead loads only")

@@ -256,6 +256,12 @@ def _shared_bodies(dof_item, notes, boundary=()):
                      f"bod{'y' if count == 1 else 'ies'}: each takes the components of both")
 
 
+def _turns(item, case):
+    """Whether a load item is a follower in this case's run (a surface
+    load's `turns`: a pressure follows in mode dynamic by default)."""
+    return bool(getattr(item, "turns", None) and item.turns(case.solver.mode))
+
+
 def body_loads(case, mesh, groups, rot0, hist):
     """Loads on the bodies: fext, mext, ffol, mfol (N, 3), load_hist (N,), gravity (3,)."""
     # loads: a group's total force/moment shared over its bodies by volume;
@@ -299,13 +305,13 @@ def body_loads(case, mesh, groups, rot0, hist):
                              "same history, or load disjoint bodies)")
         load_hist[bodies] = h
         load_item[bodies] = j
-        if getattr(item, "follower", False):
+        if _turns(item, case):
             # f_b = R0ᵀ f: constant in the rigid cell's frame
             np.add.at(ffol, ids, np.einsum("nki,nk->ni", rot0[ids], f))
             np.add.at(mfol, ids, np.einsum("nki,nk->ni", rot0[ids], mom))
         else:
             np.add.at(fext, ids, f)
             np.add.at(mext, ids, mom)
-    if not any(getattr(item, "follower", False) for item in case.loads or []):
+    if not any(_turns(item, case) for item in case.loads or []):
         ffol = mfol = np.zeros((0, 3))
     return fext, mext, ffol, mfol, load_hist, gravity
