@@ -93,7 +93,8 @@ def compression_specimen(*, cell, width=0.05, height=None, fc=40.0e6, friction=0
     interfaces of Coulomb `friction` (0: frictionless), the bottom one
     fixed, the top one pushed down at `rate` × height per second (a strain
     rate [1/s]; ramped over 0.1 ms of strain 1e-4), `confinement` [Pa] a
-    lateral pressure on the four sides ramped over the same time.  The run
+    lateral pressure on the four sides (a follower, as a triaxial cell's
+    fluid: the default of `pressure`) ramped over the same time.  The run
     ends at a strain of 0.3 % (0.6 % confined).  Probes: F (the top
     platen's z reaction, negative in compression) and d (its z
     displacement).  `uniform`: no ramp: the top platen moves from the
