@@ -261,7 +261,7 @@ solver: {mode: static, method: newton}
 def test_low_rank_update_solves_the_changed_matrix(symmetric):
     """The Newton iteration's linear solver factorises the matrix K0 of one
     state and takes the springs changed since by Woodbury's identity
-    (solvers/newton.py _LowRank).  With 40 springs then 40 more changed
+    (solvers/newton_linear.py _LowRank).  With 40 springs then 40 more changed
     (their local stiffness scaled by 10⁻⁶ to 1, an unsymmetric coupling
     added to some: a damaging spring's tangent), its solves equal the
     direct solve of the assembled K0 + ΔK to 1e-8 (relative), and so does
@@ -273,6 +273,7 @@ def test_low_rank_update_solves_the_changed_matrix(symmetric):
     from rbsm_dyn.case import load_case_text
     from rbsm_dyn.model import build_model, new_state
     from rbsm_dyn.solvers import newton as N
+    from rbsm_dyn.solvers import newton_linear as NL
     m = build_model(load_case_text(LOWRANK_BEAM))
     nt = N.Newton(m)
     st = new_state(m)
@@ -283,7 +284,7 @@ def test_low_rank_update_solves_the_changed_matrix(symmetric):
     if not symmetric:
         some = rng.choice(m.n_springs, 30, replace=False)
         k[some, 0, 1] = 0.2 * k[some, 0, 0]
-    lr = N._LowRank(nt, st, k, frames)
+    lr = NL._LowRank(nt, st, k, frames)
     f = nt.free
     B = rng.normal(size=(int(f.sum()), 2))
     k2 = k.copy()
@@ -312,17 +313,18 @@ def test_low_rank_renews_past_its_size(monkeypatch):
     from rbsm_dyn.case import load_case_text
     from rbsm_dyn.model import build_model, new_state
     from rbsm_dyn.solvers import newton as N
+    from rbsm_dyn.solvers import newton_linear as NL
     m = build_model(load_case_text(LOWRANK_BEAM))
     nt = N.Newton(m)
     st = new_state(m)
     _, tri = nt.residual(st, 0.0)
     k, frames, _ = nt.local(st, tri)
-    lr = N._LowRank(nt, st, k, frames)
-    monkeypatch.setattr(N, "LOWRANK_MAX", 12)               # two bodies
+    lr = NL._LowRank(nt, st, k, frames)
+    monkeypatch.setattr(NL, "LOWRANK_MAX", 12)              # two bodies
     k2 = k.copy()
     k2[np.random.default_rng(1).choice(m.n_springs, 20, replace=False)] *= 0.5
     assert not lr.update(k2)
-    renewed = N._LowRank(nt, st, k2, frames)
+    renewed = NL._LowRank(nt, st, k2, frames)
     assert renewed.update(k2) and renewed.A is None and len(renewed.bodies) == 0
     f = nt.free
     B = np.ones((int(f.sum()), 1))
