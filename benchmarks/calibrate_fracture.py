@@ -25,7 +25,8 @@ import numpy as np
 
 import rbsm_dyn
 from rbsm_dyn.__main__ import main
-from rbsm_dyn.fracture_calibration import VORONOI_FRACTURE, tension_specimen
+from rbsm_dyn.calibration import stiffness_rule
+from rbsm_dyn.fracture_calibration import VORONOI_ENERGY, VORONOI_TENSION, tension_specimen
 
 FT = 3.0e6
 
@@ -66,7 +67,7 @@ def main_(argv=None):
     p.add_argument("--tension-only", action="store_true",
                    help="measure F_T only (β then maps with the ν = 0 table's F_G)")
     p.add_argument("--poisson", type=float, default=0.0,
-                   help="the material's ν (the F_T of VORONOI_TENSION_POISSON)")
+                   help="the material's ν (the rows of VORONOI_TENSION and VORONOI_ENERGY)")
     a = p.parse_args(argv)
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
@@ -83,10 +84,12 @@ def main_(argv=None):
                       f"{d['balance']:.4f}, {d['wall']:.0f} s)  F_G {n['wf']:.3f} (balance "
                       f"{n['balance']:.4f}, {n['wall']:.0f} s)", flush=True)
             FT_, FG_ = np.mean(ft), np.mean(fg)
-            if a.tension_only:      # F_G of the ν = 0 table at this β_s
-                t = VORONOI_FRACTURE
-                bs = t[:, 0] * t[:, 1] ** 2 / t[:, 2]
-                FG_ = float(np.interp(np.log(beta), np.log(bs), t[:, 2]))
+            if a.tension_only:      # F_G of VORONOI_ENERGY at this β_s (nearest α's rows)
+                alpha = stiffness_rule("calibrated", "voronoi", 30.0e9, a.poisson)[1]
+                key = min(VORONOI_ENERGY, key=lambda k: abs(k - alpha))
+                g, t = VORONOI_ENERGY[key], VORONOI_TENSION[key]
+                bs = g[:, 0] * t[:, 1] ** 2 / g[:, 1]
+                FG_ = float(np.interp(np.log(beta), np.log(bs), g[:, 1]))
             rows.append((beta * FG_ / FT_ ** 2, FT_, FG_, np.std(ft), np.std(fg)))
     print("\n    # beta, F_T, F_G      (± over seeds: F_T, F_G)")
     for r in rows:
