@@ -65,41 +65,32 @@ PLANE_VORONOI_FRACTURE = np.array([
 # (8 cells of 2 mm across) at ν = 0, 0.1, 0.2, 0.25, β_s = 1, 3, 10, 30, 100
 # (the ν = 0 rows below 25: VORONOI_FRACTURE's), seeds 1-2 (± 0.001-0.03
 # between them); benchmarks/calibrate_fracture.py --tension-only --poisson ν,
-# 2026-11-28.  β = β_s F_G/F_T² with F_G of VORONOI_ENERGY at the same α and
-# β_s.  F_T is interpolated in α and log β, held beyond the ends.
+# 2026-11-28.  β = β_s F_G/F_T² with the F_G of the same α and β_s (below).
+# F_T is interpolated in α and log β, held beyond the ends.
 ALPHA_NU0 = 1.0141       # k_s/k_n of the calibrated Voronoi springs at ν = 0 (calibration.py)
-VORONOI_TENSION = {
-    # α: [[β, F_T], ...]
-    # ν = 0: VORONOI_FRACTURE's (β, F_T) and two rows beyond its end
-    ALPHA_NU0: np.vstack([VORONOI_FRACTURE[:, :2], [[24.5, 1.355], [73.6, 1.416]]]),
-    0.5815: np.array([[2.49, 0.878], [4.60, 1.060], [11.3, 1.189], [28.3, 1.269],
-                      [84.5, 1.329]]),
-    0.2662: np.array([[3.55, 0.752], [4.61, 1.065], [14.1, 1.068], [35.7, 1.144],
-                      [108., 1.194]]),
-    0.1496: np.array([[4.90, 0.671], [5.31, 1.026], [12.6, 1.156], [42.8, 1.053],
-                      [128., 1.092]]),
-}
 # The fracture-energy ratio F_G per α likewise: the lattice's fracture
 # dissipation per projected crack area grows as α falls (softer shear
 # springs: the crack's inclined faces open more in shear), +3-10 % at
-# ν = 0.2 and +5-21 % at ν = 0.25 against ν = 0 for β_s ≤ 10, +2-5 % at
-# β_s = 30-100.  Rows (β, F_G) on the double-edge-notched prisms of
-# VORONOI_FRACTURE, β_s = 1, 3, 10, 30, 100, the mean of 16 meshes (seeds
-# 1-16: one specimen scatters by ±7-17 %, the mean by ±1.8-2.8 %), 64 at
-# ν = 0.2 and β_s ≤ 10 (seeds 1-16, 101-148: ±1.1-2.1 %), 15 at ν = 0.2,
-# β_s = 100; ν = 0 below β 25: VORONOI_FRACTURE's 64;
-# benchmarks/calibrate_fracture.py --notched-only --poisson ν, 2026-11-28.
-# Interpolated as F_T.
-VORONOI_ENERGY = {
-    # α: [[β, F_G], ...]
-    ALPHA_NU0: np.vstack([VORONOI_FRACTURE[:, [0, 2]], [[24.5, 1.499], [73.6, 1.475]]]),
-    0.5815: np.array([[2.49, 1.917], [4.60, 1.723], [11.3, 1.600], [28.3, 1.520],
-                      [84.5, 1.493]]),
-    0.2662: np.array([[3.55, 2.010], [4.61, 1.742], [14.1, 1.609], [35.7, 1.557],
-                      [108., 1.533]]),
-    0.1496: np.array([[4.90, 2.205], [5.31, 1.864], [12.6, 1.682], [42.8, 1.580],
-                      [128., 1.529]]),
+# ν = 0.2 and +8-21 % at ν = 0.25 against ν = 0 for β_s ≤ 10, +2-5 % at
+# β_s = 30-100.  F_G on the double-edge-notched prisms of VORONOI_FRACTURE,
+# β_s = 1, 3, 10, 30, 100, the mean of 16 meshes (seeds 1-16: one specimen
+# scatters by ±7-17 %, the mean by ±1.8-2.8 %), 64 at ν = 0.2 and β_s ≤ 10
+# (seeds 1-16, 101-148: ±1.1-2.1 %), 15 at ν = 0.2, β_s = 100; ν = 0 below
+# β 25: VORONOI_FRACTURE's 64; benchmarks/calibrate_fracture.py
+# --notched-only --poisson ν, 2026-11-28.  F_G is interpolated as F_T.
+VORONOI_LATTICE = {
+    # α: [[β, F_T, F_G], ...]
+    # ν = 0: VORONOI_FRACTURE and two rows beyond its end
+    ALPHA_NU0: np.vstack([VORONOI_FRACTURE, [[24.5, 1.355, 1.499], [73.6, 1.416, 1.475]]]),
+    0.5815: np.array([[2.49, 0.878, 1.917], [4.60, 1.060, 1.723], [11.3, 1.189, 1.600],
+                      [28.3, 1.269, 1.520], [84.5, 1.329, 1.493]]),
+    0.2662: np.array([[3.55, 0.752, 2.010], [4.61, 1.065, 1.742], [14.1, 1.068, 1.609],
+                      [35.7, 1.144, 1.557], [108., 1.194, 1.533]]),
+    0.1496: np.array([[4.90, 0.671, 2.205], [5.31, 1.026, 1.864], [12.6, 1.156, 1.682],
+                      [42.8, 1.053, 1.580], [128., 1.092, 1.529]]),
 }
+VORONOI_TENSION = {a: rows[:, :2] for a, rows in VORONOI_LATTICE.items()}      # (β, F_T)
+VORONOI_ENERGY = {a: rows[:, [0, 2]] for a, rows in VORONOI_LATTICE.items()}   # (β, F_G)
 # With the Poisson correction (ν > 0.25, or stiffness: homogeneous; α = 1 and
 # an auxiliary cell stress λ tr(ε), which does not soften) the cells carry
 # part of the tension beside the springs: F_T rows per ν (the same prisms and
