@@ -1,7 +1,7 @@
 """A material's compressive strength -> the mixed-mode law's shear strength.
 
-The mixed-mode law (physics/laws/rupture.py) has no cap in compression: a
-lattice specimen under uniaxial compression fails by its faces inclined
+The mixed-mode law's envelope (physics/laws/rupture.py) is open in pure
+compression (its `cap` bounds the normal traction only): a lattice specimen under uniaxial compression fails by its faces inclined
 to the load, in shear under compression and, across the load, in tension
 (the splitting of a cylinder on frictionless platens).  Its strength is
 therefore set by the shear-to-tensile strength ratio r = f_s/f_t of the
@@ -19,8 +19,8 @@ the measured ratio f_c/f_t of the lattice:
     "Compression").
 
 The strength grows with r up to about 16.6 f_t (r = 6): beyond it the
-specimen splits in tension whatever its shear strength, and only the
-compressive cap of issue 31 (not built) would take it further.  An f_c
+specimen splits in tension whatever its shear strength (the compressive
+cap, which bounds the faces' compression, does not raise it).  An f_c
 outside the table's range takes the nearest end and a note says so.
 Blocks (and plane meshes) have no such calibration: a block lattice loaded
 along its axes has no inclined faces and never fails in uniaxial
@@ -75,8 +75,7 @@ def shear_ratio(mesh_kind, compressive_strength, tensile_strength,
         note = (f"compressive_strength = {ratio:.3g} f_t is above what the Voronoi lattice "
                 f"reaches ({c_tab[-1]:.3g} f_t, at f_s = {r_tab[-1]:g} f_t: it then splits in "
                 f"tension); a specimen fails near {c_tab[-1]:.3g} f_t = "
-                f"{c_tab[-1] * tensile_strength / 1e6:.4g} MPa (the compressive cap is not "
-                f"built)")
+                f"{c_tab[-1] * tensile_strength / 1e6:.4g} MPa")
     elif ratio < c_tab[0]:
         note = (f"compressive_strength = {ratio:.3g} f_t is below the calibrated range "
                 f"({c_tab[0]:.3g}-{c_tab[-1]:.3g} f_t): f_s = {r_tab[0]:g} f_t, a specimen fails "

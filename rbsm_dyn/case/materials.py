@@ -25,10 +25,21 @@ class Yield(_Node):
     model: Optional[Literal["interface", "continuum"]] = None
 
 
+class Cap(_Node):
+    """The compressive cap of a spring's normal traction
+    (physics/laws/rupture.py cap_stress): pore collapse at ``stress``
+    σ_c0 [Pa], hardening H_c0 = ``hardening`` × E0 up to ``transition`` ×
+    σ_c0/E0 of normal strain, densification beyond (LDPM's compressive
+    boundary; Cusatis et al. 2011 give σ_c0 = 150 MPa, 0.4, 4)."""
+    stress: float = Field(gt=0)
+    hardening: float = Field(default=0.4, ge=0)
+    transition: float = Field(default=4.0, ge=1)
+
+
 class Rupture(_Node):
     """``{strain}`` or ``{fracture_energy, tensile_strength}`` (+ ``law``,
     ``shear_strength``, ``compressive_strength``, ``shear_fracture_energy``,
-    ``values``, ``rate``)."""
+    ``values``, ``rate``, ``cap``)."""
     strain: Optional[float] = Field(default=None, gt=0)
     fracture_energy: Optional[float] = Field(default=None, gt=0)
     tensile_strength: Optional[float] = Field(default=None, gt=0)
@@ -38,6 +49,7 @@ class Rupture(_Node):
     shear_fracture_energy: Optional[float] = Field(default=None, gt=0)
     values: Literal["material", "spring"] = "material"
     rate: Optional[Literal["fib2010"]] = None
+    cap: Optional[Cap] = None
 
 
 class Viscoelastic(_Node):

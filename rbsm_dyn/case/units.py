@@ -9,7 +9,7 @@ from pydantic import BaseModel
 
 from .boundary import (Gravity, Group, GroupDisplacement, GroupLoad, GroupVelocity,
                        InitialVelocity, RigidMotion, SurfaceLoad)
-from .materials import Material, Rupture, Yield
+from .materials import Cap, Material, Rupture, Yield
 from .output import Output, RelativeProbe
 from .plane import Plane
 from .scene import Contact, Cut, Domain, Ground, Interface, Mesh
@@ -39,6 +39,7 @@ DIMENSIONS: dict[tuple[type, str], str] = {
     (Rupture, "shear_strength"): "stress",
     (Rupture, "compressive_strength"): "stress",
     (Rupture, "shear_fracture_energy"): "energy/area",
+    (Cap, "stress"): "stress",
     (Group, "box"): "length",
     (GroupVelocity, "velocity"): "velocity",
     (GroupVelocity, "history"): "history",

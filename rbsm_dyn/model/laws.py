@@ -9,7 +9,8 @@ from ..calibration import plane_stiffness_rule, stiffness_rule
 from ..compression_calibration import (DEFAULT_RATIO, TABLE_BRITTLENESS, TABLE_TENSION_RATIO,
                                        shear_ratio)
 from ..fracture_calibration import fracture_ratios, voronoi_tension_ratio
-from ..physics.laws import (CONTACT_OFF, CRITERIA, N_PARAMS, P_COH, P_CRIT, P_EPSCR, P_FT,
+from ..physics.laws import (CONTACT_OFF, CRITERIA, N_PARAMS, P_CAP, P_CAPH, P_CAPK, P_COH,
+                            P_CRIT, P_EPSCR, P_FT,
                             P_GF, P_GS, P_MODEL, P_MU, P_RATE, P_RS, P_RUPT, P_SLOW, P_SY,
                             P_TANPHI, P_TENSION, RUPTURE_KINDS)
 from ..physics.laws.rupture import RATE_LAWS
@@ -104,6 +105,12 @@ def material_law_row(mat, mesh_kind="voronoi", cell_size=None):
             if r.rate is not None:
                 row[P_RATE] = RATE_LAWS[r.rate]
                 row[P_SLOW] = np.sqrt(mat.density / mat.young)
+            if r.cap is not None:
+                # the face's own normal traction and strain: no calibration
+                # (in hydrostatic compression every face holds σ_n = −p)
+                row[P_CAP] = r.cap.stress
+                row[P_CAPH] = r.cap.hardening
+                row[P_CAPK] = r.cap.transition
     row[P_MU] = mat.friction or 0.0
     return row
 

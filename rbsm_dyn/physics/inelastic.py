@@ -39,11 +39,11 @@ import numpy as np
 from numba.core import types
 from numba.extending import overload
 
-from .laws import (BROKEN, CONTACT, ELASTIC, P_COH, P_CRIT, P_EPSCR, P_FT, P_GF, P_GS, P_MODEL,
-                   P_MU, P_RATE, P_RS, P_RUPT, P_SLOW, P_SY, P_TANPHI, P_TENSION, YIELDED)
+from .laws import (BROKEN, CONTACT, ELASTIC, P_CAP, P_CAPH, P_CAPK, P_COH, P_CRIT, P_EPSCR, P_FT,
+                   P_GF, P_GS, P_MODEL, P_MU, P_RATE, P_RS, P_RUPT, P_SLOW, P_SY, P_TANPHI, P_TENSION, YIELDED)
 from .laws.contact import CONTACT_OFF, contact_traction
 from .laws.plastic import CONTINUUM, plastic_return
-from .laws.rupture import (MIXED, SOFTENING, STRAIN, equivalent_strain,
+from .laws.rupture import (MIXED, SOFTENING, STRAIN, cap_stress, equivalent_strain,
                            fib2010_compression_dif, fib2010_tension_dif, mixed_mode_damage,
                            smoothed_rate, softening_damage)
 from .springs import (add_wrench, clear_part, flush_a, gap_and_scaled_frame, material_points,
@@ -184,6 +184,20 @@ def spring_law(s, f, dn, ds, dt, turned, area, kn, ks, kt, face_h, face_law, law
             fn *= 1.0 - dmg          # a crack transmits no tension ...
         fs = (1.0 - dmg) * ks * es   # ... and less shear
         ft = (1.0 - dmg) * kt * et
+        cap = law_params[li, P_CAP]
+        if cap > 0.0 and fn < 0.0:
+            # the compressive cap (rupture.cap_stress): the normal traction
+            # held on the boundary of the total normal gap, the excess a
+            # plastic closing of the gap (its work booked as plastic)
+            g = -area * cap_stress(dn, kn / area, cap, law_params[li, P_CAPH],
+                                   law_params[li, P_CAPK])
+            if fn < g:
+                pn = (fn - g) / kn
+                spring_dp[s, 0] += pn
+                spring_wp[s] += g * pn
+                fn = g
+                en -= pn
+                state = YIELDED
         crit = law_params[li, P_CRIT]
         if crit > 0 and law_params[li, P_MODEL] != CONTINUUM:
             gn, gs, gt, yielded = plastic_return(int(crit), law_params[li, P_SY] * area,
@@ -218,7 +232,10 @@ def spring_law(s, f, dn, ds, dt, turned, area, kn, ks, kt, face_h, face_law, law
         if broken:
             # stored energy before (with damage) minus what contact keeps
             e_in = 0.5 * (fn * en + fs * es + ft * et)
-            released = e_in - _contact_energy(kn, dn)
+            # a capped spring's plastic closing stays: its contact starts
+            # from the compacted gap (no other broken spring has dp_n < 0)
+            off = spring_dp[s, 0] if cap > 0.0 and spring_dp[s, 0] < 0.0 else 0.0
+            released = e_in - _contact_energy(kn, dn - off)
             if crossed:
                 # threshold crossed inside the step: the work of the
                 # released force over this step, (r + λ (1 − r)) of the
@@ -228,7 +245,7 @@ def spring_law(s, f, dn, ds, dt, turned, area, kn, ks, kt, face_h, face_law, law
                 released *= r + lam * (1.0 - r)
             spring_wf[s] += released
             state = BROKEN
-            spring_dp[s, 0] = 0.0
+            spring_dp[s, 0] = off
             spring_dp[s, 1] = ds
             spring_dp[s, 2] = dt
             if rupt == STRAIN:
@@ -265,8 +282,11 @@ def spring_law(s, f, dn, ds, dt, turned, area, kn, ks, kt, face_h, face_law, law
         ss0 = spring_dp[s, 1]
         st0 = spring_dp[s, 2]
         mu = law_params[li, P_MU] if spring_kappa[s] != np.inf else CONTACT_OFF
-        fn, fs, ft, ss1, st1, closed = contact_traction(mu, kn, ks, kt, dn, ds, dt,
-                                                            ss0, st0)
+        # (a capped spring's compaction, spring_dp[s, 0] < 0; else 0 or,
+        # for a step, the released gap of the strain law, > 0)
+        off = spring_dp[s, 0] if spring_dp[s, 0] < 0.0 else 0.0
+        fn, fs, ft, ss1, st1, closed = contact_traction(mu, kn, ks, kt, dn - off, ds, dt,
+                                                        ss0, st0)
         if closed:
             # friction work on the slip increment
             spring_wp[s] += fs * (ss1 - ss0) + ft * (st1 - st0)
@@ -683,7 +703,7 @@ def strain_energy(springs, bs, hist):
             u += ((keep if en > 0.0 else 1.0) * kn * en * en
                   + keep * (ks * es * es + kt * et * et))
         elif state == CONTACT:
-            dc = min(dn, 0.0)
+            dc = min(dn - min(spring_dp[s, 0], 0.0), 0.0)     # less a cap's compaction
             u += kn * dc * dc + ks * es * es + kt * et * et
     return 0.5 * u
 

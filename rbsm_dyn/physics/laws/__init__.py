@@ -42,4 +42,7 @@ P_RATE = 13       # strength raised with the loading rate: 0 no, 1 fib Model Cod
                   # (rupture.RATE_LAWS; mixed_mode)
 P_SLOW = 14       # √(ρ/E) [s/m] of the material: the rate is smoothed over the time
                   # h √(ρ/E) a bar wave takes to cross the spring (rupture.smoothed_rate)
-N_PARAMS = 15
+P_CAP = 15        # compressive yield stress σ_c0 of the cap [Pa], 0: no cap (rupture.cap_stress)
+P_CAPH = 16       # the cap's hardening modulus over the normal modulus, H_c0/E0
+P_CAPK = 17       # the cap's transitional strain ratio k_c0 (densification beyond k_c0 ε_c0)
+N_PARAMS = 18

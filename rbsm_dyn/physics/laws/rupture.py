@@ -30,6 +30,13 @@
   of the compressive strength (fib2010_compression_dif) in the directions
   under compression (mixed_mode_damage's cfac); the fracture energies are
   kept.
+* compressive cap (`rupture: {cap: {stress, hardening, transition}}`):
+  the normal traction is bounded in compression by the compressive
+  boundary of LDPM (Cusatis, Pelessone & Mencarelli 2011, Cem. Concr.
+  Compos. 33, 881, eq. 28, with β = 0 and the hardening modulus H_c0:
+  cap_stress below), on the spring's own normal strain: pore collapse at
+  σ_c0, linear hardening to k_c0 ε_c0, exponential densification beyond;
+  unloading is elastic, the plastic normal gap kept.
 """
 import math
 
@@ -101,6 +108,27 @@ def smoothed_rate(old, w_prev, w, step, h, slowness):
     if rate < 0.0:
         rate = 0.0
     return old + (1.0 - math.exp(-step / (h * slowness))) * (rate - old)
+
+
+@nb.njit(inline="always", **JIT)
+def cap_stress(dn, kn, sc0, hc, kc0):
+    """Compressive boundary σ_bc [Pa] (> 0, a pressure) of the normal
+    traction at the total normal gap dn [m] (< 0 closing), per-area
+    stiffness kn = E0/h [Pa/m]: LDPM's σ_bc(ε_V) (Cusatis et al. 2011,
+    eq. 28; the Chrono LDPM material's CompressBC) with the spring's normal
+    strain ε = dn/h for the volumetric one (β = 0; in hydrostatic
+    compression the two are one strain): σ_c0 up to ε_c0 = σ_c0/E0,
+    σ_c0 + H_c0 (−ε − ε_c0) up to ε_c1 = k_c0 ε_c0, then σ_c1 exp((−ε −
+    ε_c1) H_c0/σ_c1) (densification).  In gaps: ε E0 = dn kn, H_c0 =
+    hc E0."""
+    x = -dn * kn                  # −ε E0 [Pa]
+    if x <= sc0:
+        return sc0
+    x1 = kc0 * sc0
+    if x <= x1:
+        return sc0 + hc * (x - sc0)
+    s1 = sc0 + hc * (x1 - sc0)
+    return s1 * math.exp((x - x1) * hc / s1)
 
 
 @nb.njit(inline="always", **JIT)
