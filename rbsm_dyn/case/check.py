@@ -13,8 +13,7 @@ from .output import Probe, RelativeProbe
 from .parts import (ScenePart, _box_size, part_solid, scene_parts, surface_indices,
                     surface_part)
 from .scene import GEOMETRY_KINDS
-from .solver import (DYNAMIC_KEYS, MODAL_KEYS, STATIC_KEYS, capped, continuum_yield,
-                     default_static_method)
+from .solver import DYNAMIC_KEYS, MODAL_KEYS, STATIC_KEYS, continuum_yield, default_static_method
 from .top import Case
 
 MAX_CELLS = 5e6          # a mesh with more cells than this is refused
@@ -455,10 +454,6 @@ def _check(case: Case) -> None:
     if s.mode == "static" and not s.given("method"):
         s.method = default_static_method(case)
         s._method_default = True
-    if s.mode == "static" and s.method == "newton" and capped(case):
-        raise err(("solver", "method"), "newton does not take the compressive cap yet "
-                  f"(materials {', '.join(capped(case))}: rupture.cap): leave solver.method "
-                  "out or give relaxation, or run the case in mode dynamic")
     if s.mode == "static" and s.method == "newton" and continuum_yield(case):
         raise err(("solver", "method"), "newton does not follow continuum yield (materials "
                   f"{', '.join(continuum_yield(case))}: yield.model continuum): leave "

@@ -127,27 +127,18 @@ def continuum_yield(case) -> list:
             if m.yield_ is not None and m.yield_.model == "continuum"]
 
 
-def capped(case) -> list:
-    """Names of the materials with a compressive cap (`rupture.cap`,
-    physics/laws/rupture.py cap_stress), which Newton's forces and tangent
-    do not hold yet: static cases run them by relaxation."""
-    return [name for name, m in case.materials.items()
-            if m.rupture is not None and m.rupture.cap is not None]
-
-
 def default_static_method(case, n_bodies=None) -> str:
     """solver.method of a static case that does not give one: `newton`
     (Newton iterations with the consistent tangent: elastic, plastic and
     softening statics, large rotations, frictional contact interfaces;
     issue 30), unless the case gives keys of the relaxation
-    (RELAXATION_KEYS) or has continuum yield (continuum_yield) or a
-    compressive cap (capped), or more than
+    (RELAXATION_KEYS) or has continuum yield (continuum_yield), or more than
     NEWTON_DEFAULT_MAX_BODIES bodies (``n_bodies``, when known); then
     `relaxation`.  solver.control needs `newton`."""
     s = case.solver
     if s.control is not None or s.time is not None:
         return "newton"
-    if any(s.given(k) for k in RELAXATION_KEYS) or continuum_yield(case) or capped(case):
+    if any(s.given(k) for k in RELAXATION_KEYS) or continuum_yield(case):
         return "relaxation"
     if n_bodies is not None and n_bodies > NEWTON_DEFAULT_MAX_BODIES:
         return "relaxation"

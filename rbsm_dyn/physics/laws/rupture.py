@@ -132,6 +132,20 @@ def cap_stress(dn, kn, sc0, hc, kc0):
 
 
 @nb.njit(inline="always", **JIT)
+def cap_slope(dn, kn, sc0, hc, kc0):
+    """dσ_bc/d(−ε E0) of cap_stress at the same arguments: 0 before the
+    cap, h on the hardening branch, h σ_bc/σ_c1 when densifying."""
+    x = -dn * kn
+    if x <= sc0:
+        return 0.0
+    x1 = kc0 * sc0
+    if x <= x1:
+        return hc
+    s1 = sc0 + hc * (x1 - sc0)
+    return hc * math.exp((x - x1) * hc / s1)
+
+
+@nb.njit(inline="always", **JIT)
 def equivalent_strain(dn, ds, dt, h):
     """ε_eq of the gap (δn, δs, δt) [m] over the spring length h [m]."""
     p = dn if dn > 0.0 else 0.0
