@@ -49,12 +49,14 @@ def _spring_ratio(mat, mesh_kind):
 
 
 def _table_tension_ratio(mat, mesh_kind):
-    """The material's F_T at the compression table's brittleness
-    (compression_calibration.shear_ratio's `tension_ratio`)."""
+    """The material's (F_T at the compression table's brittleness, its
+    springs' α or None with the Poisson correction):
+    compression_calibration.shear_ratio's `tension_ratio` and `alpha`."""
     alpha, aux_nu = _spring_ratio(mat, mesh_kind)
     if alpha is None:
-        return TABLE_TENSION_RATIO
-    return voronoi_tension_ratio(TABLE_BRITTLENESS, alpha, aux_nu)
+        return TABLE_TENSION_RATIO, None
+    return (voronoi_tension_ratio(TABLE_BRITTLENESS, alpha, aux_nu),
+            alpha if aux_nu is None else None)
 
 
 def material_law_row(mat, mesh_kind="voronoi", cell_size=None):
@@ -97,7 +99,7 @@ def material_law_row(mat, mesh_kind="voronoi", cell_size=None):
             elif r.compressive_strength is not None:
                 # the ratio whose lattice fails at f_c (compression_calibration.py)
                 ratio, _ = shear_ratio(mesh_kind, r.compressive_strength, r.tensile_strength,
-                                       _table_tension_ratio(mat, mesh_kind))
+                                       *_table_tension_ratio(mat, mesh_kind))
             row[P_RS] = ratio
             g_s = r.fracture_energy if r.shear_fracture_energy is None \
                 else r.shear_fracture_energy
@@ -129,7 +131,7 @@ def compression_notes(case, parts, body_part, body_material, body_rigid):
         kinds = sorted({prefix + parts[k].mesh.kind for k in used})
         for kind in kinds:
             _, note = shear_ratio(kind, r.compressive_strength, r.tensile_strength,
-                                  _table_tension_ratio(mat, kind))
+                                  *_table_tension_ratio(mat, kind))
             if note:
                 notes.append(f"materials.{name}.rupture.compressive_strength: {note}")
     return notes
@@ -154,7 +156,7 @@ def law_notes(case):
         if r.compressive_strength is not None and r.shear_strength is None \
                 and "voronoi" in kinds and case.plane is None:
             ratio, _ = shear_ratio("voronoi", r.compressive_strength, r.tensile_strength,
-                                   _table_tension_ratio(mat, "voronoi"))
+                                   *_table_tension_ratio(mat, "voronoi"))
             fc = r.compressive_strength
             notes.append(f"materials.{name}: compressive_strength {fc / 1e6:.4g}"
                          f" MPa = {fc / r.tensile_strength:.3g} f_t gives "
