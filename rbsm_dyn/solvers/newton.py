@@ -300,7 +300,9 @@ def _local_tangents(laws, trial, committed, gap, cgap, open_fraction, slip_floor
             # in tension opens at the next iteration, the residual being
             # exact; at an increment's first step _increment decides the
             # touching faces by their predicted gaps, cgap)
-            if cgap[s, 0] <= 1e-12 * spring_h[s] and mu >= 0.0:
+            # (a capped spring's compaction, dp_n < 0, is its contact's zero)
+            g0 = cgap[s, 0] - min(dp[s, 0], 0.0)
+            if g0 <= 1e-12 * spring_h[s] and mu >= 0.0:
                 out[s, 0, 0] = kn
                 # Coulomb friction (laws/contact.py) from the committed slip:
                 # stick, the elastic springs; slip, the consistent tangent of
@@ -313,7 +315,7 @@ def _local_tangents(laws, trial, committed, gap, cgap, open_fraction, slip_floor
                 ts = ks * (cgap[s, 1] - dp[s, 1])
                 tt = kt * (cgap[s, 2] - dp[s, 2])
                 t = math.sqrt(ts * ts + tt * tt)
-                tmax = -mu * kn * cgap[s, 0]
+                tmax = -mu * kn * g0
                 if mu > 0.0 and tmax > 0.0 and t <= tmax:
                     out[s, 1, 1] = ks
                     out[s, 2, 2] = kt
@@ -823,8 +825,9 @@ def _increment(nt, state, lam, goal, plan, tol, controlled):
                     break
                 now = np.empty((m.n_springs, 3))
                 spring_local_gap(model_arrays(m)[1], body_state(state), now)
+                touch = now[contact, 0] - np.minimum(state.spring_dp[contact, 0], 0.0)
                 if ACTIVE_TOUCHING_ONLY and not np.any(
-                        np.abs(now[contact, 0]) <= 1e-12 * nt.laws[2][contact]):
+                        np.abs(touch) <= 1e-12 * nt.laws[2][contact]):
                     break
                 closed = _contact_status(nt, state, now, contact) > 0
             dU, dlam = _combine(dU_r, dF, gap, cr, den, 1.0) if controlled else (dU_r, 0.0)
@@ -948,9 +951,10 @@ def _contact_status(nt, state, cgap, faces):
     k = m.spring_k[faces]
     dp = state.spring_dp[faces]
     mu = m.law_params[m.spring_law[faces], P_MU]
-    closed = g[:, 0] <= 1e-12 * m.spring_h[faces]
+    gn = g[:, 0] - np.minimum(dp[:, 0], 0.0)       # less a capped spring's compaction
+    closed = gn <= 1e-12 * m.spring_h[faces]
     t = np.hypot(k[:, 1] * (g[:, 1] - dp[:, 1]), k[:, 2] * (g[:, 2] - dp[:, 2]))
-    tmax = -mu * k[:, 0] * g[:, 0]
+    tmax = -mu * k[:, 0] * gn
     stick = closed & (mu > 0.0) & (tmax > 0.0) & (t <= tmax)
     return closed.astype(np.int8) + stick
 
