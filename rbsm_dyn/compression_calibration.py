@@ -1,8 +1,9 @@
 """A material's compressive strength -> the mixed-mode law's shear strength.
 
 The mixed-mode law's envelope (physics/laws/rupture.py) is open in pure
-compression (its `cap` bounds the normal traction only): a lattice specimen under uniaxial compression fails by its faces inclined
-to the load, in shear under compression and, across the load, in tension
+compression (its `cap` bounds the normal traction only): a lattice
+specimen under uniaxial compression fails by its faces inclined to the
+load, in shear under compression and, across the load, in tension
 (the splitting of a cylinder on frictionless platens).  Its strength is
 therefore set by the shear-to-tensile strength ratio r = f_s/f_t of the
 envelope τ² = f_s² (1 − σ/f_t), as in Cusatis's LDPM, whose ratio σ_s/σ_t is

@@ -98,7 +98,8 @@ def test_cap_on_a_block_lattice_is_the_boundary(run_case):
 def test_cap_on_voronoi_cells(run_case):
     """Voronoi cells (4 mm in a 20 mm cube): elastic p/ε = 3K within 5 %;
     half the springs have yielded at p within 5 % of σ_c0 (the faces hold
-    σ_n = −p on average; one by one within about ±8 % of it); the slope of p against ε from 1.3 to 2.6 σ_c0 is h × 3K within
+    σ_n = −p on average; one by one within about ±8 % of it); the slope
+    of p against ε from 1.3 to 2.6 σ_c0 is h × 3K within
     15 %; energy balance within 1 % of the work."""
     h = run_case(cube_text("{kind: voronoi, size: 0.004, seed: 3}"))
     eps = mean_strain(h)

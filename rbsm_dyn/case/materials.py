@@ -30,7 +30,8 @@ class Cap(_Node):
     (physics/laws/rupture.py cap_stress): pore collapse at ``stress``
     σ_c0 [Pa], hardening H_c0 = ``hardening`` × E0 up to ``transition`` ×
     σ_c0/E0 of normal strain, densification beyond (LDPM's compressive
-    boundary; Cusatis et al. 2011 give σ_c0 = 150 MPa, 0.4, 4)."""
+    boundary, Cusatis et al. 2011; the defaults, and σ_c0 = 150 MPa, are
+    those of Chrono's LDPM test material)."""
     stress: float = Field(gt=0)
     hardening: float = Field(default=0.4, ge=0)
     transition: float = Field(default=4.0, ge=1)

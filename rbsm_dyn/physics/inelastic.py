@@ -40,7 +40,8 @@ from numba.core import types
 from numba.extending import overload
 
 from .laws import (BROKEN, CONTACT, ELASTIC, P_CAP, P_CAPH, P_CAPK, P_COH, P_CRIT, P_EPSCR, P_FT,
-                   P_GF, P_GS, P_MODEL, P_MU, P_RATE, P_RS, P_RUPT, P_SLOW, P_SY, P_TANPHI, P_TENSION, YIELDED)
+                   P_GF, P_GS, P_MODEL, P_MU, P_RATE, P_RS, P_RUPT, P_SLOW, P_SY, P_TANPHI,
+                   P_TENSION, YIELDED)
 from .laws.contact import CONTACT_OFF, contact_traction
 from .laws.plastic import CONTINUUM, plastic_return
 from .laws.rupture import (MIXED, SOFTENING, STRAIN, cap_stress, equivalent_strain,
