@@ -217,3 +217,14 @@ def test_cap_input_errors(tmp_path, capsys, change, words):
     assert main([str(case), "--out", str(tmp_path / "bad.h5"), "--quiet"]) == 2
     err = capsys.readouterr().err
     assert all(w in err for w in words), err
+
+
+def test_check_prints_the_cap(tmp_path, capsys):
+    """`check` prints the cap's branches: held at σ_c0 = 60 MPa, hardening
+    to σ_c1 = σ_c0 + h (k_c0 − 1) σ_c0 = 132 MPa (eq. 28 at ε_c1)."""
+    case = tmp_path / "cap.yaml"
+    case.write_text(cube_text("{kind: blocks, divisions: [2, 2, 2]}"), encoding="utf-8")
+    assert main(["check", str(case)]) == 0
+    out = capsys.readouterr().out
+    assert "cap: a spring's normal traction is held at 60 MPa" in out
+    assert "hardens by 0.4 E0 to 132 MPa" in out

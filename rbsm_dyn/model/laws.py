@@ -141,7 +141,8 @@ def law_notes(case):
     """What `check` and `info` print of the laws' derived values: the shear
     strength a compressive strength gives on Voronoi cells
     (compression_calibration.py) and the loading-rate factors of `rate:
-    fib2010` at a few strain rates (physics/laws/rupture.py)."""
+    fib2010` at a few strain rates, and the compressive cap's branches
+    (physics/laws/rupture.py)."""
     from ..case import scene_parts
     from ..physics.laws.rupture import fib2010_compression_dif, fib2010_tension_dif
     notes = []
@@ -170,6 +171,16 @@ def law_notes(case):
                               for x in rates)
             notes.append(f"materials.{name}: rate {r.rate} raises the strength at a strain rate "
                          f"of {shown} (fib Model Code 2010 §5.1.11.1)")
+        if r.cap is not None:
+            c = r.cap
+            # at the case's E: E0 differs by the stiffness calibration (a few %)
+            e1 = c.transition * c.stress / mat.young
+            notes.append(f"materials.{name}: cap: a spring's normal traction is held at "
+                         f"{c.stress / 1e6:.4g} MPa from a closing strain of about "
+                         f"{c.stress / mat.young:.3g}, hardens by {c.hardening:g} E0 to "
+                         f"{(c.stress + c.hardening * (e1 * mat.young - c.stress)) / 1e6:.4g} "
+                         f"MPa at about {e1:.3g}, then densifies (LDPM's compressive "
+                         "boundary; a cube under a pressure yields at the first figure)")
     return notes
 
 
