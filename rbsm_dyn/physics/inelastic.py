@@ -191,7 +191,7 @@ def spring_law(s, f, dn, ds, dt, turned, area, kn, ks, kt, face_h, face_law, law
             # held on the boundary of the total normal gap, the excess a
             # plastic closing of the gap (its work booked as plastic)
             g = -area * cap_stress(dn, kn / area, cap, law_params[li, P_CAPH],
-                                   law_params[li, P_CAPK])
+                                   law_params[li, P_CAPK])[0]
             if fn < g:
                 pn = (fn - g) / kn
                 spring_dp[s, 0] += pn

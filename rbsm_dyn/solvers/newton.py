@@ -68,7 +68,7 @@ from ..physics.integrate import DISPLACEMENT, FREE, VELOCITY
 from ..physics.laws import (BROKEN, P_CAP, P_CAPH, P_CAPK, P_COH, P_CRIT, P_EPSCR, P_FT, P_GF,
                             P_GS, P_MU, P_RS, P_RUPT, P_SY, P_TANPHI, P_TENSION)
 from ..physics.laws.plastic import MOHR_COULOMB, plastic_return
-from ..physics.laws.rupture import (MIXED, SOFTENING, cap_slope, cap_stress, mixed_mode_damage,
+from ..physics.laws.rupture import (MIXED, SOFTENING, cap_stress, mixed_mode_damage,
                                     softening_damage)
 from ..physics.passes import spring_forces
 from ..physics.rotation import quat_matrix_np, quat_mul_np
@@ -353,9 +353,9 @@ def _local_tangents(laws, trial, committed, gap, cgap, open_fraction, slip_floor
             # the total gap, ∂σn/∂δn = kn σ_bc'(−δn kn) (rupture.cap_stress),
             # floored as a yielding spring's
             kna = kn / spring_area[s]
-            if kna * en < -cap_stress(gap[s, 0], kna, P[P_CAP], P[P_CAPH], P[P_CAPK]):
-                out[s, 0, 0] = kn * max(cap_slope(gap[s, 0], kna, P[P_CAP], P[P_CAPH],
-                                                  P[P_CAPK]), open_fraction)
+            sbc, slope = cap_stress(gap[s, 0], kna, P[P_CAP], P[P_CAPH], P[P_CAPK])
+            if kna * en < -sbc:
+                out[s, 0, 0] = kn * max(slope, open_fraction)
         if P[P_CRIT] > 0 and D == 0.0:
             # yielding: the consistent tangent of the return mapping
             # (Simo & Hughes 1998, §3.3: ∂σ/∂ε of the closest-point

@@ -114,35 +114,23 @@ def smoothed_rate(old, w_prev, w, step, h, slowness):
 def cap_stress(dn, kn, sc0, hc, kc0):
     """Compressive boundary σ_bc [Pa] (> 0, a pressure) of the normal
     traction at the total normal gap dn [m] (< 0 closing), per-area
-    stiffness kn = E0/h [Pa/m]: LDPM's σ_bc(ε_V) (Cusatis et al. 2011,
-    eq. 28; the Chrono LDPM material's CompressBC) with the spring's normal
-    strain ε = dn/h for the volumetric one (β = 0; in hydrostatic
-    compression the two are one strain): σ_c0 up to ε_c0 = σ_c0/E0,
-    σ_c0 + H_c0 (−ε − ε_c0) up to ε_c1 = k_c0 ε_c0, then σ_c1 exp((−ε −
-    ε_c1) H_c0/σ_c1) (densification).  In gaps: ε E0 = dn kn, H_c0 =
-    hc E0."""
+    stiffness kn = E0/h [Pa/m], and its slope dσ_bc/d(−ε E0): LDPM's
+    σ_bc(ε_V) (Cusatis et al. 2011, eq. 28; the Chrono LDPM material's
+    CompressBC) with the spring's normal strain ε = dn/h for the
+    volumetric one (β = 0; in hydrostatic compression the two are one
+    strain): σ_c0 up to ε_c0 = σ_c0/E0 (slope 0), σ_c0 + H_c0 (−ε − ε_c0)
+    up to ε_c1 = k_c0 ε_c0 (slope h), then σ_c1 exp((−ε − ε_c1) H_c0/σ_c1)
+    (densification, slope h σ_bc/σ_c1).  In gaps: ε E0 = dn kn, H_c0 =
+    hc E0.  Returns (σ_bc, slope)."""
     x = -dn * kn                  # −ε E0 [Pa]
     if x <= sc0:
-        return sc0
+        return sc0, 0.0
     x1 = kc0 * sc0
     if x <= x1:
-        return sc0 + hc * (x - sc0)
+        return sc0 + hc * (x - sc0), hc
     s1 = sc0 + hc * (x1 - sc0)
-    return s1 * math.exp((x - x1) * hc / s1)
-
-
-@nb.njit(inline="always", **JIT)
-def cap_slope(dn, kn, sc0, hc, kc0):
-    """dσ_bc/d(−ε E0) of cap_stress at the same arguments: 0 before the
-    cap, h on the hardening branch, h σ_bc/σ_c1 when densifying."""
-    x = -dn * kn
-    if x <= sc0:
-        return 0.0
-    x1 = kc0 * sc0
-    if x <= x1:
-        return hc
-    s1 = sc0 + hc * (x1 - sc0)
-    return hc * math.exp((x - x1) * hc / s1)
+    e = math.exp((x - x1) * hc / s1)
+    return s1 * e, hc * e
 
 
 @nb.njit(inline="always", **JIT)
