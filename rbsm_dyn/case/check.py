@@ -458,6 +458,9 @@ def _check(case: Case) -> None:
         raise err(("solver", "method"), "newton does not follow continuum yield (materials "
                   f"{', '.join(continuum_yield(case))}: yield.model continuum): leave "
                   "solver.method out or give relaxation, or run the case in mode dynamic")
+    if s.given("damage_update") and s.mode == "static" and s.method != "newton":
+        raise err(("solver", "damage_update"), "chooses how newton updates the damage of "
+                  "softening springs: it needs solver.method: newton")
     if s.control is not None:
         cp = ("solver", "control")
         if s.method != "newton":

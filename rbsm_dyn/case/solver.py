@@ -95,6 +95,7 @@ class Solver(_Node):
     relaxation: Literal["adaptive", "local"] = "adaptive"
     damping_factor: float = Field(default=0.7, ge=0, lt=1)
     predictor: bool = True
+    damage_update: Literal["auto", "implicit", "implex"] = "auto"
 
     def instants(self):
         """The instants [s] of a static run in time (``time``), ascending."""
@@ -147,5 +148,5 @@ def default_static_method(case, n_bodies=None) -> str:
 
 DYNAMIC_KEYS = ("end_time", "dt", "dt_safety", "damping")
 STATIC_KEYS = ("load_steps", "tolerance", "max_iterations", "relaxation",
-               "damping_factor", "predictor", "method", "control", "time")
+               "damping_factor", "predictor", "method", "control", "time", "damage_update")
 MODAL_KEYS = ("modes",)

@@ -75,7 +75,8 @@ from ..physics.rotation import quat_matrix_np, quat_mul_np
 from ..physics.springs import spring_local_gap
 from ..stiffness import free_rigid_modes, model_load, world_inertia
 from .explicit import RunFailed
-from .newton_linear import OPEN_FRACTION, _Full, _LowRank, _dof_order, one_blas_thread
+from .newton_linear import (OPEN_FRACTION, _Full, _LowRank, _WithGeometric, _dof_order,
+                            one_blas_thread)
 from .passes import Options, aux_stress, body_state, history, model_arrays, parallel_arg
 from .statics import apply_increment, record_frame
 
@@ -100,6 +101,15 @@ STALL_IT = 6
 # a halving, cut increments that were converging slowly: the plain-
 # displacement notched beam 164 s against 129 s, three-point bending the same)
 STALL_FACTOR = 1.0
+# halvings of one increment after which `damage_update: auto` goes over to IMPL-EX
+IMPLEX_AFTER_CUTS = 3
+# IMPL-EX's lag allowed per increment: the change of a spring's traction from
+# the damage held to the implicit law's, a share of its tensile strength
+# (_implex_lag); an increment that lags more is halved
+IMPLEX_LAG = 0.01
+# iteration of an IMPL-EX increment from which the damaged springs' normal
+# status is held (Newton.hold_status)
+HOLD_AFTER = 3
 
 
 class Newton:
@@ -136,6 +146,7 @@ class Newton:
         # the springs' per-point constants (Model's properties gather them
         # from the faces at every access)
         self.laws = (m.spring_k, m.spring_area, m.spring_h, m.spring_law, m.law_params)
+        self._laws, self._frozen = self.laws, None
         self.K_aux = None
         if m.poisson_on:
             from ..physics.poisson import poisson_stiffness
@@ -146,14 +157,39 @@ class Newton:
         d = self.m.dof_kind[:, :3] == DISPLACEMENT
         state.body_pos[:-1][d] = self.m.body_pos0[:-1][d] + lam * self.m.dof_value[:, :3][d]
 
+    #: IMPL-EX (Oliver, Huespe & Cante 2008): the damage (S,) the present
+    #: increment's iterations hold fixed, None: the implicit law
+    implex = None
+
+    def hold_damage(self, dmg):
+        """Iterate the next increment at the damage `dmg` (S,) held fixed
+        (IMPL-EX: the damaging laws then act as damaged elastic springs,
+        their secant the exact tangent); None: the implicit laws again."""
+        self.implex = dmg
+        self.hold = None
+        if dmg is None:
+            self.laws = self._laws
+            return
+        if self._frozen is None:
+            P = self.m.law_params.copy()
+            soft = np.isin(P[:, P_RUPT], (SOFTENING, MIXED))
+            P[soft, P_RUPT] = 0.0
+            self._frozen = P
+        self.laws = self._laws[:4] + (self._frozen,)
+
     def trial(self, state, commit=False):
         """Spring wrenches at the present positions from the committed
         history (commit: write the new history into the state); returns the
-        trial spring states and damage (for the secant stiffness)."""
+        trial spring states and damage (for the secant stiffness).  With a
+        held damage (hold_damage) the damaging springs take it and do not
+        grow it."""
         m = self.m
         opt = Options.of(m)
         bodies, springs, loads = model_arrays(m)
         hist = history(state, opt, copy=not commit)
+        if self.implex is not None:
+            springs = springs._replace(law_params=self._frozen)
+            hist.spring_dmg[:] = self.implex
         spring_forces(springs, body_state(state), hist, aux_stress(m, state, opt), True, 0.0,
                       parallel_arg(opt))
         sstate, dmg = (None, None) if hist is None else (hist.spring_state, hist.spring_dmg)
@@ -162,8 +198,75 @@ class Newton:
     def residual(self, state, lam):
         """r (N·6) = spring wrenches + λ F, and the trial spring states."""
         tri = self.trial(state)
+        if self.hold is not None:
+            self._held_wrench(state)
         r = state.body_wrench[:self.n].reshape(-1) + lam * self.F
         return r, tri
+
+    #: (damaged (H,), tension (H,) bool, faces (C,), closed (C,) bool):
+    #: the springs whose normal status an IMPL-EX increment holds once it has
+    #: iterated HOLD_AFTER times (hold_status), None: each at its present gap
+    hold = None
+
+    def hold_status(self, state, tri):
+        """Hold the normal status of the damaged intact springs and of the
+        contact faces at their present gaps for the rest of the increment: a
+        damaged spring in tension at (1 − D) kn, in compression at kn, a face
+        closed at kn, open at nothing, whichever side of zero its gap goes
+        (IMPL-EX's explicit treatment of the unilateral and contact
+        conditions, Oliver, Huespe & Cante 2008: with the damage held, the
+        increment is then smooth; the springs that would flip sit at a gap
+        near zero, where the two forces differ little)."""
+        m = self.m
+        en, g0 = self._normal_gap(state)
+        idx = np.flatnonzero((tri[0] < BROKEN) & (self.implex > 0.0) & (self.implex < 1.0))
+        faces = _contact_faces(self, state, tri)
+        self.hold = (idx, en[idx] > 0.0, faces, g0[faces] <= 1e-12 * m.spring_h[faces])
+
+    def _normal_gap(self, state):
+        """(e_n, g_n) (S,) [m]: an intact spring's normal gap less its plastic
+        one, a contact face's less its compaction (the zero it closes at:
+        _contact_status)."""
+        m = self.m
+        gap = np.empty((m.n_springs, 3))
+        spring_local_gap(model_arrays(m)[1], body_state(state), gap)
+        dp = state.spring_dp[:, 0]
+        return gap[:, 0] - dp, gap[:, 0] - np.minimum(dp, 0.0)
+
+    def _held_wrench(self, state):
+        """Add to body_wrench the forces by which the held springs
+        (hold_status) differ from the kernel's, which took each at its
+        present gap: ∓D kn e_n along the normal of a damaged spring, kn e_n
+        for a held-closed face that opened, minus the whole contact force
+        of a held-open face that closed."""
+        m = self.m
+        idx, tension, faces, closed = self.hold
+        en, g0 = self._normal_gap(state)
+        flip = np.flatnonzero(tension != (en[idx] > 0.0))
+        s1 = idx[flip]
+        dfn = np.where(tension[flip], -1.0, 1.0) * self.implex[s1] * m.spring_k[s1, 0] * en[s1]
+        now = g0[faces] <= 1e-12 * m.spring_h[faces]
+        opened = faces[closed & ~now]
+        shut = faces[~closed & now]
+        if s1.size + opened.size + shut.size == 0:
+            return
+        s = np.concatenate([s1, opened, shut])
+        n = self.n
+        sb = m.spring_bodies[s]
+        dq = quat_mul_np(state.body_quat[sb[:, 0]], _conj(m.body_quat0[sb[:, 0]]))
+        normal = quat_matrix_np(quat_mul_np(dq, m.spring_frame0[s]))[:, :, 0]
+        dfn = np.concatenate([dfn, m.spring_k[opened, 0] * g0[opened], np.zeros(shut.size)])
+        df = normal * dfn[:, None]
+        df[s1.size + opened.size:] = -state.spring_force[shut]
+        R = state.body_rot
+        ra = np.einsum("sij,sj->si", R[sb[:, 0]], m.spring_arm_a[s])
+        rb = np.einsum("sij,sj->si", R[sb[:, 1]], m.spring_arm_b[s])
+        w = state.body_wrench
+        np.add.at(w[:, :3], sb[:, 0], df)
+        np.add.at(w[:, 3:], sb[:, 0], np.cross(ra, df))
+        inner = sb[:, 1] < n
+        np.add.at(w[:, :3], sb[inner, 1], -df[inner])
+        np.add.at(w[:, 3:], sb[inner, 1], -np.cross(rb[inner], df[inner]))
 
     def norm(self, r):
         return float(np.linalg.norm((r * self.w)[self.free]))
@@ -213,6 +316,17 @@ class Newton:
                 cgap, OPEN_FRACTION, SLIP_FLOOR, self.use_tangent, k))
         else:
             k[:, [0, 1, 2], [0, 1, 2]] = self.laws[0]
+        if self.hold is not None:
+            idx, tension, faces, closed = self.hold
+            kn = self.laws[0][idx, 0]
+            k[idx, 0, 0] = np.where(tension, (1.0 - self.implex[idx]) * kn, kn)
+            # a held-open face: open_fraction of its stiffness; a held-closed
+            # one that has opened: its normal spring whole
+            op = faces[~closed]
+            k[op] = 0.0
+            k[op[:, None], [0, 1, 2], [0, 1, 2]] = OPEN_FRACTION * self.laws[0][op]
+            cl = faces[closed]
+            k[cl, 0, 0] = self.laws[0][cl, 0]
         n = self.n
         dq = quat_mul_np(state.body_quat[:n], _conj(m.body_quat0[:n]))
         dq = np.vstack([dq, [[1.0, 0, 0, 0]]])
@@ -252,7 +366,7 @@ class Newton:
         geometric stiffness assembled)."""
         local = self.local(state, tri)
         k, frames, turned = local
-        if not turned:
+        if not turned or self.implex is not None:
             if self.low_rank is None or not self.low_rank.update(k):
                 try:
                     self.low_rank = _LowRank(self, state, k, frames)
@@ -261,6 +375,17 @@ class Newton:
                     return _Full(self, self.stiffness(state, tri, local))
                 self.factorizations += 1
                 self.low_rank.update(k, limit=False)
+            if self.implex is not None:
+                # (IMPL-EX: the geometric stiffness of the spring forces
+                # too, solved on the low-rank factors, renewed here when
+                # they no longer precondition; module docstring)
+                def renew():
+                    self.low_rank = _LowRank(self, state, k, frames)
+                    self.factorizations += 1
+                    self.low_rank.update(k, limit=False)
+                    return self.low_rank
+                return _WithGeometric(self, self.stiffness(state, tri, (k, frames, True)),
+                                      self.low_rank, renew)
             return self.low_rank
         return _Full(self, self.stiffness(state, tri, local))
 
@@ -572,16 +697,37 @@ def _run(case, model, recorder, *, max_steps=None, progress=None):
     auto = not controlled and bool(np.any(it_.disp)) and state.spring_dmg is not None \
         and len(state.spring_dmg) > 0
     name = None if control is None else control.probe
+    # IMPL-EX (module docstring): from the start, or (auto) from the first
+    # increment the implicit damage update fails after IMPLEX_AFTER_CUTS
+    # halvings
+    how = getattr(sol, "damage_update", "auto")
+    damaging = _damaging(m)
+    implex = damaging and how == "implex"
+    dmg_last, step_last = state.spring_dmg.copy(), d
+    notes = [it_.note] if it_.note else []
     while (auto and controlled and np.isinf(target_end)) or \
             sign * (target_end - pos) > 1e-12 * max(abs(target_end), d_max):
         step = min(d, sign * (target_end - pos))
         saved = _save(state)
         lam_saved = lam
+        step0 = step
         for cut in range(MAX_CUTS + 1):
             goal = pos + sign * step
+            if implex:
+                it_.hold_damage(_extrapolated_damage(m, saved, dmg_last, step / step_last))
             ok, lam, its, ratio = _increment(it_, state, lam, goal, plan, sol.tolerance,
                                              controlled)
+            held = it_.implex
+            if ok and held is not None:
+                # the reactions of the equilibrium found (the damage held),
+                # not of the implicit law's forces committed below, which it
+                # does not balance: the loads' work is that of equilibrium
+                _set_reactions(it_, state, lam)
+            it_.hold_damage(None)
             total += its
+            if ok and held is not None and cut < MAX_CUTS and \
+                    _implex_lag(it_, state, held) > IMPLEX_LAG:
+                ok = False          # the damage lagged too far: halved
             if controlled and auto and ok and lam > 1.0:
                 # past the displacement the case asks for: the last stretch
                 # under displacement control again, to λ = 1 exactly
@@ -598,6 +744,17 @@ def _run(case, model, recorder, *, max_steps=None, progress=None):
             _restore(state, saved)
             lam = lam_saved
             step *= 0.5
+            if damaging and how == "auto" and not implex and cut + 1 >= IMPLEX_AFTER_CUTS \
+                    and np.any(_cracking(m, state)):
+                # the implicit update has failed this increment 3 times with
+                # springs softening: this and the rest of the run by IMPL-EX,
+                # from the increment's size
+                implex = True
+                step = step0
+                what = (f"{name} = {pos:.4g}" if controlled else f"λ = {lam:.4g}")
+                notes.append(f"the implicit damage update did not converge at increment "
+                             f"{len(iterations) + 1} ({what}); IMPL-EX from there on "
+                             f"(solver.damage_update)")
             if max_steps is not None and total >= max_steps:
                 break
         if not ok:
@@ -624,11 +781,15 @@ def _run(case, model, recorder, *, max_steps=None, progress=None):
                 d = d_max
                 name = "the crack opening"
                 controlled, sign, target_end = True, 1.0, np.inf
+                # (IMPL-EX: no rate of damage in the new path parameter yet)
+                dmg_last, step_last = state.spring_dmg.copy(), d
                 continue
         pos = goal
         iterations.append(its)
+        dmg_last, step_last = saved["spring_dmg"], step
         d = min(d_max, step * min(max(math.sqrt(DESIRED_IT / max(its, 1)), 1.0), 1.5))
-        _set_reactions(it_, state, lam)
+        if not implex:
+            _set_reactions(it_, state, lam)
         frame(lam, ratio)
         load = abs(_load(it_, state, lam))
         peak = max(peak, load)
@@ -649,13 +810,50 @@ def _run(case, model, recorder, *, max_steps=None, progress=None):
             raise RunFailed(msg)
         if max_steps is not None and total >= max_steps:
             return dict(iterations=iterations, wall_time=_time.perf_counter() - t_wall,
-                        state=state, converged=False, warnings=[it_.note] if it_.note else [])
+                        state=state, converged=False, warnings=notes)
     return dict(iterations=iterations, wall_time=_time.perf_counter() - t_wall, state=state,
-                converged=True, warnings=[it_.note] if it_.note else [])
+                converged=True, warnings=notes)
 
 
 #: increments the automatic crack-opening control may take before it gives up
 AUTO_MAX_INCREMENTS = 2000
+
+
+def _damaging(m):
+    """True when some spring point has a softening law (rupture.py SOFTENING,
+    MIXED): the laws IMPL-EX extrapolates."""
+    rupt = m.law_params[m.spring_law, P_RUPT] if m.n_springs else np.zeros(0)
+    return bool(np.any(np.isin(rupt, (SOFTENING, MIXED))))
+
+
+def _implex_lag(nt, state, held):
+    """IMPL-EX's error at a converged increment: the largest change of a
+    damaging spring's traction between the damage held (`held`) and the
+    implicit law's at the same gaps, (D − D̃) |K e|/area, over its tensile
+    strength (Oliver, Huespe & Cante 2008 control the step by the same
+    difference of the two stresses)."""
+    m = nt.m
+    sstate, dmg = nt.trial(state)
+    gap = np.empty((m.n_springs, 3))
+    spring_local_gap(model_arrays(m)[1], body_state(state), gap)
+    e = gap - state.spring_dp
+    e[:, 0] = np.maximum(e[:, 0], 0.0)
+    t = np.linalg.norm(m.spring_k * e, axis=1) / m.spring_area
+    P = m.law_params[m.spring_law]
+    sel = (np.isin(P[:, P_RUPT], (SOFTENING, MIXED)) & (P[:, P_FT] > 0.0)
+           & (state.spring_state < BROKEN))
+    if not np.any(sel):
+        return 0.0
+    return float(np.max((dmg[sel] - held[sel]) * t[sel] / P[sel, P_FT]))
+
+
+def _extrapolated_damage(m, saved, dmg_last, ratio):
+    """IMPL-EX's explicit extrapolation of the damage (Oliver, Huespe &
+    Cante 2008, CMAME 197, eq. 37, on D for the internal variable):
+    D̃ = D_n + ratio (D_n − D_(n−1)), ratio = Δτ_(n+1)/Δτ_n the increments
+    of the path parameter, within [D_n, 1]."""
+    dn = saved["spring_dmg"]
+    return np.clip(dn + ratio * (dn - dmg_last), dn, 1.0)
 
 
 def _cracking(m, state):
@@ -766,6 +964,9 @@ def _increment(nt, state, lam, goal, plan, tol, controlled):
             nt.use_tangent = False
         if k > 1:               # (not the converged residual the increment starts from)
             seen.append(ratio)
+        if nt.implex is not None and k == HOLD_AFTER and ratio > tol:
+            nt.hold_status(state, tri)
+            r, tri = nt.residual(state, lam)
         if len(seen) > STALL_IT and ratio > tol and \
                 min(seen[-STALL_IT:]) > STALL_FACTOR * min(seen[:-STALL_IT]):
             # stalled: the best residual of the last STALL_IT iterations is

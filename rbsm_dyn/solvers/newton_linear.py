@@ -19,6 +19,7 @@ from .passes import model_arrays
 OPEN_FRACTION = 1e-6    # secant stiffness of an open crack / the intact spring's
 GMRES_MAX = 60          # GMRES iterations (no restart) before refactorising
 CG_MAX = 30             # CG iterations before the preconditioner is refactorised
+GEOMETRIC_RTOL = 1e-6  # relative residual a solve of _WithGeometric must reach
 CG_RTOL = 1e-10         # relative residual of each linear solve
 LOWRANK_MAX = 3000      # DOFs of the changed springs' bodies before K0 is refactorised
 # columns of K0⁻¹ one growth of the changed set may take (when it also
@@ -279,6 +280,58 @@ class _LowRank:
         E[pos, 1] = a + v[:, 1]
         W = self.lu.solve(E)
         return np.column_stack([y1, self.y0]) - W
+
+
+class _WithGeometric:
+    """Solves with the whole present matrix K (the material part at the
+    springs' present tangents plus the geometric stiffness of their forces,
+    solvers/assembly.py _geometric) by GMRES preconditioned by the
+    small-rotation solver `inner` (_LowRank, which leaves the geometric
+    stiffness out): under large spring forces and a softened process zone
+    (a Brazilian disc near its peak) the missing initial-stress term alone
+    keeps the modified Newton iteration from converging."""
+
+    def __init__(self, nt, K, inner, renew):
+        self.nt = nt
+        self.inner = inner
+        self.renew = renew
+        f = nt.free
+        self.Kff = sp.csr_matrix(K[f][:, f])
+        self.Kfp = K[f][:, nt.disp]
+
+    def solve(self, B):
+        """K⁻¹ B; the inner factors renewed once (at the present state) when
+        GMRES_MAX iterations leave a relative residual above
+        GEOMETRIC_RTOL; None if that fails too."""
+        X = self._gmres(B)
+        if X is None:
+            self.inner = self.renew()
+            X = self._gmres(B)
+        return X
+
+    def _gmres(self, B):
+        n = self.Kff.shape[0]
+        pre = spla.LinearOperator((n, n), dtype=float,
+                                  matvec=lambda v: self.inner.solve(v[:, None])[:, 0])
+        X = np.empty_like(B)
+        for j in range(B.shape[1]):
+            b = B[:, j]
+            x, _ = spla.gmres(self.Kff, b, x0=pre.matvec(b), M=pre, rtol=CG_RTOL,
+                              restart=GMRES_MAX, maxiter=1)
+            # (the inner solve is inexact, CAPACITANCE_RTOL: GMRES's own flag
+            # can fail where the true residual is small; judged on that)
+            if not (np.all(np.isfinite(x)) and np.linalg.norm(self.Kff @ x - b)
+                    <= GEOMETRIC_RTOL * np.linalg.norm(b)):
+                return None
+            X[:, j] = x
+        return X
+
+    def prescribed(self):
+        return self.Kfp @ self.nt.Up[self.nt.disp]
+
+    def solve_pair(self, r):
+        """K⁻¹ [r, F − K_fp U_p] (free DOFs × 2); None if singular."""
+        return self.solve(np.column_stack([r, self.nt.F[self.nt.free] - self.prescribed()]))
 
 
 class _Permuted:
