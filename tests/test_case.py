@@ -438,3 +438,17 @@ def test_static_method_default(extra, solver, method):
     s = load_case_text(text).solver
     assert s.method == method
     assert s._method_default == ("method:" not in solver)     # `check` says which
+
+
+def test_damage_update_needs_newton():
+    # `damage_update` is how Newton updates softening springs: with dynamic
+    # relaxation, or in another mode, it is refused by its key
+    text = STATIC.replace("tolerance: 1.0e-6}", "tolerance: 1.0e-6, method: relaxation, "
+                          "damage_update: implex}")
+    err = bad(text)
+    assert err.path == "solver.damage_update" and "newton" in err.message
+    err = bad(DYNAMIC.replace("dt_safety: 0.8}", "dt_safety: 0.8, damage_update: implex}"))
+    assert "damage_update" in err.path
+    case = load_case_text(STATIC.replace("tolerance: 1.0e-6}",
+                                         "tolerance: 1.0e-6, damage_update: implex}"))
+    assert case.solver.method == "newton" and case.solver.damage_update == "implex"

@@ -48,6 +48,24 @@ Control:
   Non-linear Finite Element Analysis of Solids and Structures, vol. 1,
   §9.6).  λ may fall: a snap-back in load against displacement is
   followed as long as the probe grows.
+IMPL-EX (``solver.damage_update: implex``; Oliver, Huespe & Cante 2008,
+"An implicit/explicit integration scheme to increase computability of
+non-linear material and contact/friction problems", CMAME 197, 1865):
+for a diffuse process zone (a Brazilian disc), where the implicit update
+switches thousands of springs per iteration and stalls, each increment
+holds the damage of the softening laws at its linear extrapolation from
+the last two converged increments (_extrapolated_damage), so the
+increment is a damaged elastic problem whose secant is its tangent; the
+iteration matrix adds the geometric stiffness of the spring forces
+(_WithGeometric, GMRES on the low-rank factors: under the disc's strip
+pressures its neglect alone stalled the iteration), and after HOLD_AFTER
+iterations the normal status of the damaged springs and contact faces is
+held too (Newton.hold_status).  After convergence the implicit law
+commits the damage and books its energy; an increment whose implicit
+traction differs from the held one by more than IMPLEX_LAG of the
+strength is halved (_implex_lag).  The equilibrium's reactions are
+recorded.  The damage lags by one increment: a peak may pass the
+strength by what one increment adds (tests/test_auto_control.py).
 An increment that does not converge in NEWTON_MAX_IT iterations is cut in
 half (from the last converged state) up to MAX_CUTS times; an increment
 that converges lets the next one grow by √(DESIRED_IT/iterations), between
@@ -101,8 +119,6 @@ STALL_IT = 6
 # a halving, cut increments that were converging slowly: the plain-
 # displacement notched beam 164 s against 129 s, three-point bending the same)
 STALL_FACTOR = 1.0
-# halvings of one increment after which `damage_update: auto` goes over to IMPL-EX
-IMPLEX_AFTER_CUTS = 3
 # IMPL-EX's lag allowed per increment: the change of a spring's traction from
 # the damage held to the implicit law's, a share of its tensile strength
 # (_implex_lag); an increment that lags more is halved
@@ -697,12 +713,8 @@ def _run(case, model, recorder, *, max_steps=None, progress=None):
     auto = not controlled and bool(np.any(it_.disp)) and state.spring_dmg is not None \
         and len(state.spring_dmg) > 0
     name = None if control is None else control.probe
-    # IMPL-EX (module docstring): from the start, or (auto) from the first
-    # increment the implicit damage update fails after IMPLEX_AFTER_CUTS
-    # halvings
-    how = getattr(sol, "damage_update", "auto")
-    damaging = _damaging(m)
-    implex = damaging and how == "implex"
+    # IMPL-EX (module docstring) when the case asks for it
+    implex = getattr(sol, "damage_update", "implicit") == "implex" and _damaging(m)
     dmg_last, step_last = state.spring_dmg.copy(), d
     notes = [it_.note] if it_.note else []
     while (auto and controlled and np.isinf(target_end)) or \
@@ -710,7 +722,6 @@ def _run(case, model, recorder, *, max_steps=None, progress=None):
         step = min(d, sign * (target_end - pos))
         saved = _save(state)
         lam_saved = lam
-        step0 = step
         for cut in range(MAX_CUTS + 1):
             goal = pos + sign * step
             if implex:
@@ -744,17 +755,6 @@ def _run(case, model, recorder, *, max_steps=None, progress=None):
             _restore(state, saved)
             lam = lam_saved
             step *= 0.5
-            if damaging and how == "auto" and not implex and cut + 1 >= IMPLEX_AFTER_CUTS \
-                    and np.any(_cracking(m, state)):
-                # the implicit update has failed this increment 3 times with
-                # springs softening: this and the rest of the run by IMPL-EX,
-                # from the increment's size
-                implex = True
-                step = step0
-                what = (f"{name} = {pos:.4g}" if controlled else f"λ = {lam:.4g}")
-                notes.append(f"the implicit damage update did not converge at increment "
-                             f"{len(iterations) + 1} ({what}); IMPL-EX from there on "
-                             f"(solver.damage_update)")
             if max_steps is not None and total >= max_steps:
                 break
         if not ok:
