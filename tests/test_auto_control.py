@@ -82,7 +82,8 @@ def test_implex_follows_the_snap_back_to_the_fracture_energy(run_case):
     # may pass the strength by the stress one increment of opening adds
     # (the increments are a twentieth of 2 G_f/f_t: at most 10 % of f_t);
     # the energy is booked by the implicit law at each converged increment,
-    # so the crack still dissipates G_f A_lig (0.1 %)
+    # so the crack still dissipates G_f A_lig (0.1 %), and the balance
+    # closes to the 1 % of the work
     h = run_case(textwrap.dedent(BAR).replace(
         "solver: {mode: static, load_steps: 20}",
         "solver: {mode: static, load_steps: 20, damage_update: implex}"))
@@ -90,9 +91,12 @@ def test_implex_follows_the_snap_back_to_the_fracture_energy(run_case):
     o = h.observables
     P, u = np.asarray(o["P"]), np.asarray(o["u"])
     peak = P.max()
-    assert 0.9 * FT * A_LIG <= peak <= 1.1 * FT * A_LIG
+    over = E / 0.005 * 0.05 * 2.0 * GF / FT / FT
+    assert 0.9 * FT * A_LIG <= peak <= (1.0 + over) * FT * A_LIG
     k = int(np.argmax(P))
     assert u[k:].min() < u[k] - 1e-7
     assert P[-1] < 0.5 * peak
     assert u[-1] == pytest.approx(1.0e-5, rel=1e-6)
     assert o["fracture"][-1] == pytest.approx(GF * A_LIG, rel=1e-3)
+    bal = o["strain"] + o["fracture"] + o["plastic"] - o["external_work"]
+    assert np.abs(bal).max() <= 0.01 * o["external_work"].max()
