@@ -229,21 +229,20 @@ class Newton:
         conditions, Oliver, Huespe & Cante 2008: with the damage held, the
         increment is then smooth; the springs that would flip sit at a gap
         near zero, where the two forces differ little)."""
-        m = self.m
-        en, g0 = self._normal_gap(state)
+        en, _, gap = self._normal_gap(state)
         idx = np.flatnonzero((tri[0] < BROKEN) & (self.implex > 0.0) & (self.implex < 1.0))
         faces = _contact_faces(self, state, tri)
-        self.hold = (idx, en[idx] > 0.0, faces, g0[faces] <= 1e-12 * m.spring_h[faces])
+        self.hold = (idx, en[idx] > 0.0, faces, _contact_status(self, state, gap, faces) > 0)
 
     def _normal_gap(self, state):
-        """(e_n, g_n) (S,) [m]: an intact spring's normal gap less its plastic
+        """(e_n, g_n, gap): an intact spring's normal gap less its plastic
         one, a contact face's less its compaction (the zero it closes at:
-        _contact_status)."""
+        _contact_status), (S,) [m], and the local gaps (S, 3)."""
         m = self.m
         gap = np.empty((m.n_springs, 3))
         spring_local_gap(model_arrays(m)[1], body_state(state), gap)
         dp = state.spring_dp[:, 0]
-        return gap[:, 0] - dp, gap[:, 0] - np.minimum(dp, 0.0)
+        return gap[:, 0] - dp, gap[:, 0] - np.minimum(dp, 0.0), gap
 
     def _held_wrench(self, state):
         """Add to body_wrench the forces by which the held springs
@@ -253,11 +252,11 @@ class Newton:
         of a held-open face that closed."""
         m = self.m
         idx, tension, faces, closed = self.hold
-        en, g0 = self._normal_gap(state)
+        en, g0, gap = self._normal_gap(state)
         flip = np.flatnonzero(tension != (en[idx] > 0.0))
         s1 = idx[flip]
         dfn = np.where(tension[flip], -1.0, 1.0) * self.implex[s1] * m.spring_k[s1, 0] * en[s1]
-        now = g0[faces] <= 1e-12 * m.spring_h[faces]
+        now = _contact_status(self, state, gap, faces) > 0
         opened = faces[closed & ~now]
         shut = faces[~closed & now]
         if s1.size + opened.size + shut.size == 0:
