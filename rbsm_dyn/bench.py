@@ -19,7 +19,10 @@ Ends with one line (the contract of issue 5):
 start-up apart) with 1 and the default thread count, steps chosen for about
 --seconds of loop each, and prints a table: build µs per body, ns per
 spring-point-step on 1 and default threads, their ratio, and memory: the
-peak resident size (the build's) and the resident size while stepping.
+peak resident size (the build's) and the arrays held while stepping (model
+and state).  The loop steps the model as a run does, less its mesh's
+arrays (Model.without_mesh_arrays; the memory line says how many MiB of
+them are still held: 0 unless something keeps the Mesh).
 """
 import argparse
 import sys
@@ -95,6 +98,11 @@ def run(bodies, steps, threads, physics, repeat=3, out=print, poisson=0.2):
     case = load_case_text(case_text(bodies, physics, poisson), "bench.yaml")
     model = build_model(case)
     t_build = time.perf_counter() - t0
+    # the model as a run steps it: less the mesh's arrays, which the run
+    # releases once the history holds them (cli/run.py, Model.without_mesh_arrays)
+    mesh_built = mesh_bytes(model)
+    model = model.without_mesh_arrays()
+    mesh_held = mesh_bytes(model)
     S, N = model.n_springs, model.n_bodies
     if "default" in threads:
         from .threads import default_threads
@@ -133,7 +141,8 @@ def run(bodies, steps, threads, physics, repeat=3, out=print, poisson=0.2):
     foot = (per_body * N + per_spring * S + other) / 2**20
     out(f"memory: build peak {peak:.0f} MiB (resident size above the {r0:.0f} MiB before it), "
         f"model and state {foot:.0f} MiB = {per_body:.0f} B per body + {per_spring:.0f} B per "
-        f"spring point + {other / 2**20:.1f} MiB; build {t_build / N * 1e6:.0f} µs per body")
+        f"spring point + {other / 2**20:.1f} MiB, mesh arrays held {mesh_held / 2**20:.1f} MiB "
+        f"(of {mesh_built / 2**20:.0f} MiB built); build {t_build / N * 1e6:.0f} µs per body")
     if len(threads) > 1:
         t1 = threads[0]
         for nt in threads[1:]:
@@ -175,6 +184,13 @@ def footprint(model, state):
     return per["body"] / nb_, per["spring"] / ns_, per["other"]
 
 
+def mesh_bytes(model):
+    """Bytes of the arrays of the model's mesh (0 once a run has released
+    them: Model.without_mesh_arrays keeps only the bounds, 48 B)."""
+    return sum(v.nbytes for v in vars(model.mesh).values() if isinstance(v, np.ndarray)) \
+        if model.mesh is not None else 0
+
+
 def _rss(key):
     """Resident size [MiB] from /proc/self/status (VmRSS now, VmHWM peak);
     NaN where there is no /proc."""
@@ -199,7 +215,7 @@ def sizes(bodies_list, physics, seconds, repeat, out=print):
         "model": r"model: (\d+) bodies, (\d+) spring points.*build ([\d.]+) s",
         "bench": r"bench: .*threads=(\d+) .*ns_per_spring_step=([\d.]+)",
         "mem": r"memory: build peak (\S+) MiB .* model and state (\S+) MiB = (\d+) B per body "
-               r"\+ (\d+) B per spring point.*; build (\d+)",
+               r"\+ (\d+) B per spring point.*mesh arrays held (\S+) MiB.*; build (\d+)",
         "default": r"default threads for \d+ spring points on this machine now: (\d+)"}.items()}
     for bodies in bodies_list:
         # about `seconds` of loop at ~25 ns per spring-point-step, 37 points per body
@@ -219,16 +235,18 @@ def sizes(bodies_list, physics, seconds, repeat, out=print):
         ns = {int(t): float(x) for t, x in pat["bench"].findall(text)}
         nd = int(pat["default"].search(text).group(1))
         rows.append((int(mm.group(1)), int(mm.group(2)), steps, float(mm.group(3)),
-                     int(mem.group(5)), ns[1], nd, ns[nd], float(mem.group(1)),
-                     float(mem.group(2)), int(mem.group(3)), int(mem.group(4))))
+                     int(mem.group(6)), ns[1], nd, ns[nd], float(mem.group(1)),
+                     float(mem.group(2)), int(mem.group(3)), int(mem.group(4)),
+                     float(mem.group(5))))
     out("")
     out("| bodies | spring points | steps | build [s] | build [µs/body] | 1 thread "
         "[ns/spring-step] | default threads | default [ns/spring-step] | default / 1 | "
-        "build peak [MiB] | model + state [MiB] | [B/body] + [B/spring point] |")
-    out("|" + "---|" * 12)
-    for (N, S, steps, tb, us, ns1, nd, nsd, peak, foot, pb, ps) in rows:
+        "build peak [MiB] | model + state [MiB] | [B/body] + [B/spring point] | "
+        "mesh held [MiB] |")
+    out("|" + "---|" * 13)
+    for (N, S, steps, tb, us, ns1, nd, nsd, peak, foot, pb, ps, mh) in rows:
         out(f"| {N} | {S} | {steps} | {tb:.1f} | {us} | {ns1:.1f} | {nd} | {nsd:.1f} | "
-            f"{ns1 / nsd:.2f}x | {peak:.0f} | {foot:.0f} | {pb} + {ps} |")
+            f"{ns1 / nsd:.2f}x | {peak:.0f} | {foot:.0f} | {pb} + {ps} | {mh:.1f} |")
     return rows
 
 

@@ -9,7 +9,7 @@ physics/ take these arrays; nothing here is read by a kernel as an object.
 Index type: int32 throughout (DESIGN.md §5); state float64.
 
 Modules:
-  core.py         Model
+  core.py         Model (MeshSummary: its mesh while a run steps)
   state.py        State, new_state
   mesh_build.py   build_mesh, part_mesh: the cells of the scene
   laws.py         law rows of a material (material_law_row, ...), the law
@@ -23,7 +23,7 @@ Modules:
   contact.py      contact between any cells: ContactModel, ContactState
 """
 from .build import build_model
-from .core import IDX, Model
+from .core import IDX, MeshSummary, Model
 from .initial import apply_initial
 from .laws import elastic_law_row, material_law_row, strength_of, unbreakable
 from .loads import COMPONENTS, FACES, surface_ids, surface_load
@@ -32,7 +32,7 @@ from .stable_step import (STABLE_DT_SWEEPS, _scaled_row_sums, dof_row_sums,  # n
                           omega_max_bound, scaled_row_sums)
 from .state import State, new_state
 
-__all__ = ["COMPONENTS", "FACES", "IDX", "Model", "STABLE_DT_SWEEPS", "State", "apply_initial",
+__all__ = ["COMPONENTS", "FACES", "IDX", "MeshSummary", "Model", "STABLE_DT_SWEEPS", "State", "apply_initial",
            "build_mesh", "build_model", "dof_row_sums", "elastic_law_row", "material_law_row",
            "new_state", "omega_max_bound", "part_mesh", "scaled_row_sums", "strength_of",
            "surface_ids", "surface_load", "unbreakable"]

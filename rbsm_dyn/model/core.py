@@ -6,6 +6,7 @@ physics/ take these arrays; nothing here is read by a kernel as an object.
 
 Index type: int32 throughout (DESIGN.md §5); state float64.
 """
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -69,6 +70,13 @@ class Model:
     Poisson correction (physics/poisson.py): poisson, a PoissonArrays of
       per-cell least-squares strain geometry and λ_c V_c; length 0 (and
       poisson_on False) when no material has an auxiliary λ.
+    Mesh: mesh, the Mesh the model was built from (mesh/_core.py: cells'
+      vertices and polygons, internal and boundary faces), which the build,
+      the contact build, the history's static part and the probe plan
+      read; the time loop reads none of it.  A run replaces it by a
+      MeshSummary once its Recorder has written the geometry
+      (without_mesh_arrays, cli/run.py): about 2.8 kB per Voronoi cell
+      less while stepping.
     """
     n_bodies: int
     body_mass: np.ndarray
@@ -205,6 +213,19 @@ class Model:
     def is_support(self):
         return self.spring_bodies[:, 1] == self.n_bodies
 
+    def without_mesh_arrays(self):
+        """This model with `mesh` replaced by its MeshSummary (the counts,
+        bounds and names, none of the geometry arrays): what a run steps
+        once the Recorder has written the geometry to the history and taken
+        its probe plan and surface levers (solvers/output.py).  The explicit
+        and relaxation loops, checkpoints, restart and the end-of-run lines
+        read no mesh array.  The memory is freed only when nothing else
+        holds the Mesh (cli/run.py drops the build's model).  A model
+        without a Mesh (None, or already a summary) is returned as it is."""
+        if self.mesh is None or isinstance(self.mesh, MeshSummary):
+            return self
+        return dataclasses.replace(self, mesh=MeshSummary.of(self.mesh))
+
     def stable_dt(self, state=None):
         """Stable step 2/ω_max from a bound on ω_max² = λ_max(M⁻¹K): Gershgorin
         row sums of the mass-scaled small-strain stiffness M^-½ K M^-½, with
@@ -229,6 +250,39 @@ class Model:
             zeta = float(np.max(self.law_dashpot[np.unique(self.face_law)])) / dt
             dt *= np.sqrt(1.0 + zeta * zeta) - zeta
         return dt
+
+@dataclass(frozen=True, eq=False)
+class MeshSummary:
+    """What a Model keeps of its Mesh while a run steps
+    (Model.without_mesh_arrays): n_cells, box (2, 3) [m], surface_names and
+    part_names.  The geometry arrays (vertices, polygons, internal and
+    boundary faces: about 2.8 kB per Voronoi cell) are in the history by
+    then (particles/bodies/geometry, springs/faces, springs/boundary_faces);
+    reading one here raises an AttributeError that says so."""
+    n_cells: int
+    box: np.ndarray
+    surface_names: tuple = ()
+    part_names: tuple = ()
+
+    @classmethod
+    def of(cls, mesh):
+        return cls(n_cells=int(mesh.n_cells), box=np.array(mesh.box, dtype=float),
+                   surface_names=tuple(mesh.surface_names),
+                   part_names=tuple(getattr(mesh, "part_names", ()) or ()))
+
+    def __getattr__(self, name):
+        # (only for names the summary lacks: a Mesh array, or a dunder
+        # that copy and pickle look up)
+        if name.startswith("__"):
+            raise AttributeError(name)
+        raise AttributeError(f"mesh.{name}: the mesh's arrays were released when the run "
+                             "started stepping (Model.without_mesh_arrays); read what is "
+                             "needed before (solvers/output.py Recorder)")
+
+    def __repr__(self):
+        lo, hi = self.box
+        return f"MeshSummary({self.n_cells} cells, box {lo.tolist()}..{hi.tolist()})"
+
 
 def _frame_normals(frame):
     """First column n of the rotation of each frame quaternion (S, 4) -> (S, 3)."""

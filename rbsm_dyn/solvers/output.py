@@ -409,6 +409,15 @@ class Recorder:
                              f"those of the case {sorted(expected)}")
         return self
 
+    def without_mesh_arrays(self):
+        """Go on with the model less its mesh arrays (Model.without_mesh_arrays)
+        and return it: the geometry is in the history by now and the probe
+        plan and surface-load levers were taken when the Recorder was made;
+        what append, the energies and the checkpoints read is the model's
+        own arrays.  (cli/run.py, for the explicit and relaxation runs.)"""
+        self.model = self.model.without_mesh_arrays()
+        return self.model
+
     def strain_energy(self, state):
         m = self.model
         u = strain_energy_of(m, state)
