@@ -119,13 +119,14 @@ def test_implex_on_contact_supports_follows_the_implicit_path(implicit_beam, tmp
     it from the start, this beam's first increment failed 12 halvings).
     At every frame the supports carry the platen's load in compression
     only; the peak lies within 3 % of the implicit path's (the issue's
-    bound between two solutions of one specimen; IMPL-EX's damage lags
-    one increment of CMOD, 1 % of the crack's critical opening); the
-    energy balance within 2 % of the work (IMPL-EX's lag, O(increment):
-    the Brazilian disc's 1.9 % fell to 0.6 % with half the increment,
-    docs/case_file.md)."""
-    h = _run(BEAM.replace("tolerance: 1.0e-5", "tolerance: 1.0e-5\n  damage_update: implex"),
-             tmp_path)
+    bound between two solutions of one specimen); the energy balance
+    within 2 % of the work.  IMPL-EX's damage lags one increment, so its
+    energy error is O(increment): here 3.7 % at the implicit run's CMOD
+    increments (4 µm, 6 % of the crack's critical opening 2 G_f/f_t),
+    1.2 % at half of them, which this run takes (the Brazilian disc:
+    1.9 % and 0.6 %, docs/case_file.md)."""
+    h = _run(BEAM.replace("tolerance: 1.0e-5", "tolerance: 1.0e-5\n  damage_update: implex")
+             .replace("increment: 4.0e-6", "increment: 2.0e-6"), tmp_path)
     ob = h.observables
     P = -np.asarray(ob["P"])
     Rp, Rr = np.asarray(ob["R_pin"]), np.asarray(ob["R_roller"])
