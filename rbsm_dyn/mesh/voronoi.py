@@ -37,10 +37,11 @@ Clean-up
 """
 from __future__ import annotations
 
+import numba as nb
 import numpy as np
 
 from ._core import Mesh, _gather, assemble, check_box
-from .dual import voronoi_ridges
+from .dual import JIT, voronoi_ridges
 from .spring_points import polygon_properties
 
 __all__ = ["voronoi_mesh", "voronoi_seeds"]
@@ -151,7 +152,7 @@ def _tessellate(seeds, box, size, reach):
     # vertices of a boundary face lie on its side plane: put them there
     vb = kside[rid] >= 0
     V[vid[vb], kside[rid[vb]] // 2] = box[kside[rid[vb]] % 2, kside[rid[vb]] // 2]
-    used = np.unique(vid)
+    used = _used(vid, len(V))
     tol = 1e-10 * size
     Vu = V[used]
     for a in range(3):
@@ -220,7 +221,8 @@ def _build(box, size, seeds, data, bnormal=None):
 
     # merge Voronoi vertices closer than tol (near-degenerate seed sets)
     tol = 1e-10 * size
-    used, inv = np.unique(vid, return_inverse=True)
+    used = _used(vid, len(V))
+    inv = _renumber(used, len(V))[vid]
     Vu = V[used]
     pairs = _kdtree()(Vu).query_pairs(tol, output_type="ndarray")
     if len(pairs):
@@ -239,8 +241,7 @@ def _build(box, size, seeds, data, bnormal=None):
 
     # unique (ridge, vertex) pairs, ordered by angle about the ridge normal
     R = len(kp)
-    key = np.unique(rid * len(xyz) + vid)
-    rid, vid = key // len(xyz), key % len(xyz)
+    rid, vid = _ridge_vertices(rid, vid)
     normal = np.empty((R, 3))
     isb = kside >= 0
     d = seeds[kq[~isb]] - seeds[kp[~isb]]
@@ -260,7 +261,7 @@ def _build(box, size, seeds, data, bnormal=None):
     e2 = np.cross(normal, e1)
     rel = xyz[vid] - m[rid]
     ang = np.arctan2(np.einsum("ij,ij->i", rel, e2[rid]), np.einsum("ij,ij->i", rel, e1[rid]))
-    o = np.lexsort((ang, rid))
+    o = _order_in_segments(ang, cnt)
     rid, vid = rid[o], vid[o]
     ptr = np.zeros(R + 1, dtype=np.int64)
     np.cumsum(cnt, out=ptr[1:])
@@ -283,10 +284,80 @@ def _build(box, size, seeds, data, bnormal=None):
     b_ptr, b_vid = _gather(ptr, vid, bi)
     f_cells, b_cell, b_side = np.stack([kp[fi], kq[fi]], axis=1), kp[bi], kside[bi]
     f_normal, b_normal = normal[fi], None if bnormal is None else normal[bi]
-    del key, rid, vid, ptr, normal, rel, ang, o, e1, e2, m, cnt, area, sel, sp, sv, ok, isb
+    del rid, vid, ptr, normal, rel, ang, o, e1, e2, m, cnt, area, sel, sp, sv, ok, isb
     del kp, kq, kside, fi, bi, bnormal, d, pairs
     return assemble(box, xyz, f_cells, f_ptr, f_vid, f_normal, b_cell, b_side, b_ptr, b_vid,
                     n_cells=N, ref=seeds, b_normal=b_normal)
+
+
+def _used(vid, n):
+    """The sorted distinct values of vid (of 0..n−1): np.unique(vid), by a
+    mask in O(n) (numpy's unique hashes or sorts: 2.2 s of a 10.7 s build
+    of 50 000 cells)."""
+    mask = np.zeros(n, dtype=bool)
+    mask[vid] = True
+    return np.flatnonzero(mask)
+
+
+def _renumber(used, n):
+    """(n,) the rank of each of `used` (sorted) among them: with _used, the
+    inverse of np.unique(vid, return_inverse=True) is _renumber(used)[vid]."""
+    pos = np.full(n, -1, dtype=np.int64)
+    pos[used] = np.arange(len(used))
+    return pos
+
+
+@nb.njit(**JIT)
+def _ridge_vertices(rid, vid):
+    """The distinct (ridge, vertex) pairs of rid (sorted) and vid, ordered
+    by ridge then vertex: np.unique(rid * V + vid) split back, per ridge
+    (each a few vertices, sorted by insertion)."""
+    n = len(rid)
+    out_r = np.empty(n, dtype=np.int64)
+    out_v = np.empty(n, dtype=np.int64)
+    k = 0
+    i = 0
+    while i < n:
+        j = i
+        while j < n and rid[j] == rid[i]:
+            j += 1
+        start = k
+        for a in range(i, j):
+            v = vid[a]
+            # insert v into out_v[start:k] (sorted), unless present
+            pos = k
+            while pos > start and out_v[pos - 1] > v:
+                pos -= 1
+            if pos > start and out_v[pos - 1] == v:
+                continue
+            for b in range(k, pos, -1):
+                out_v[b] = out_v[b - 1]
+            out_v[pos] = v
+            k += 1
+        for b in range(start, k):
+            out_r[b] = rid[i]
+        i = j
+    return out_r[:k].copy(), out_v[:k].copy()
+
+
+@nb.njit(**JIT)
+def _order_in_segments(key, cnt):
+    """The permutation that sorts `key` within consecutive segments of
+    lengths cnt, stably: np.lexsort((key, seg)) for sorted segment ids, by
+    insertion in each segment (a face's few vertices)."""
+    n = len(key)
+    o = np.arange(n)
+    start = 0
+    for c in cnt:
+        for a in range(start + 1, start + c):
+            x = o[a]
+            b = a
+            while b > start and key[o[b - 1]] > key[x]:
+                o[b] = o[b - 1]
+                b -= 1
+            o[b] = x
+        start += c
+    return o
 
 
 def voronoi_cells(seeds, size, box) -> Mesh:
