@@ -41,6 +41,7 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
+import numba as nb
 import numpy as np
 
 __all__ = ["SpringPoints", "spring_points", "polygon_properties", "RULES"]
@@ -79,21 +80,63 @@ def polygon_properties(vertex_ptr, vertex_xyz, normal):
     """Area and area centroid of planar polygons (counter-clockwise about ``normal``).
 
     Returns ``area (F,)``, ``centroid (F, 3)``.  Areas are signed: a polygon
-    ordered clockwise about its normal gets a negative area.
+    ordered clockwise about its normal gets a negative area.  The fan of
+    triangles from the vertex mean m: ½ ((v_k − m) × (v_k+1 − m))·n each,
+    its centroid m + (v_k + v_k+1 − 2m)/3 (one compiled loop over the
+    polygons, _polygon_properties; the vectorised form took 1.3 s of a
+    50 000-cell build's 10 s).
     """
-    vertex_xyz = np.asarray(vertex_xyz, dtype=np.float64)
-    normal = np.asarray(normal, dtype=np.float64)
-    n, poly, nxt = _polygon_index(vertex_ptr)
+    vertex_ptr = np.asarray(vertex_ptr, dtype=np.int64)
+    vertex_xyz = np.ascontiguousarray(vertex_xyz, dtype=np.float64)
+    normal = np.ascontiguousarray(normal, dtype=np.float64)
+    n = np.diff(vertex_ptr)
+    if np.any(n < 3):
+        raise ValueError("every face needs at least 3 vertices")
     F = len(n)
-    m = _segment_sum(vertex_xyz, poly, F) / n[:, None]  # vertex mean, inside a convex polygon
-    a = vertex_xyz - m[poly]
-    b = vertex_xyz[nxt] - m[poly]
-    ta = 0.5 * np.einsum("ij,ij->i", np.cross(a, b), normal[poly])
-    area = np.bincount(poly, ta, minlength=F)
-    g = _segment_sum(ta[:, None] * (a + b) / 3.0, poly, F)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        centroid = m + g / area[:, None]
+    area = np.empty(F)
+    centroid = np.empty((F, 3))
+    _polygon_properties(vertex_ptr, vertex_xyz, normal, area, centroid)
     return area, centroid
+
+
+@nb.njit(cache=True, nogil=True, error_model="numpy")
+def _polygon_properties(ptr, xyz, normal, area, centroid):
+    """area (F,), centroid (F, 3) of polygons ptr/xyz about normal (F, 3)
+    (polygon_properties); the sums in vertex order, as np.bincount took
+    them."""
+    m = np.empty(3)
+    g = np.empty(3)
+    for f in range(len(ptr) - 1):
+        a0 = ptr[f]
+        a1 = ptr[f + 1]
+        for c in range(3):
+            acc = 0.0
+            for i in range(a0, a1):
+                acc += xyz[i, c]
+            m[c] = acc / (a1 - a0)
+        A = 0.0
+        g[0] = g[1] = g[2] = 0.0
+        for i in range(a0, a1):
+            j = i + 1 if i + 1 < a1 else a0
+            ax = xyz[i, 0] - m[0]
+            ay = xyz[i, 1] - m[1]
+            az = xyz[i, 2] - m[2]
+            bx = xyz[j, 0] - m[0]
+            by = xyz[j, 1] - m[1]
+            bz = xyz[j, 2] - m[2]
+            cx = ay * bz - az * by
+            cy = az * bx - ax * bz
+            cz = ax * by - ay * bx
+            # (x + z) + y: the order numpy's einsum summed it in, so that the
+            # meshes stay the same bit for bit
+            ta = 0.5 * ((cx * normal[f, 0] + cz * normal[f, 2]) + cy * normal[f, 1])
+            A += ta
+            g[0] += ta * (ax + bx) / 3.0
+            g[1] += ta * (ay + by) / 3.0
+            g[2] += ta * (az + bz) / 3.0
+        area[f] = A
+        for c in range(3):
+            centroid[f, c] = m[c] + g[c] / A
 
 
 def _sqrt_spd2(a, b, d):
