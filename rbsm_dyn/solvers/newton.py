@@ -33,7 +33,8 @@ notched beam of benchmarks/quasi_static.py one factorisation instead of
 one or more per iteration (7-17 s per increment before, 1-2 s now).
 Past GEOMETRIC_ANGLE (_Full): the whole matrix with the geometric
 stiffness, conjugate gradients or GMRES preconditioned by the factors of
-an earlier one.
+an earlier one; an increment that fails on it is made again on the
+low-rank one, and the reverse (_increment_or_retry).
 
 Control:
 * load / displacement control: λ runs 1/n, 2/n, ... 1 (``load_steps``),
@@ -60,7 +61,8 @@ matrix adds the geometric stiffness of the spring forces (_WithGeometric,
 GMRES on the low-rank factors: under the disc's strip pressures its
 neglect alone stalled the iteration), and an increment that fails is made
 again on the low-rank matrix alone, or the reverse, and that matrix stays
-(_held_increment); after HOLD_AFTER iterations the normal status of the
+(_increment_or_retry; past GEOMETRIC_ANGLE the implicit path's _Full
+likewise); after HOLD_AFTER iterations the normal status of the
 damaged springs and contact faces is held too (Newton.hold_status), and
 with contact faces among them checked at convergence: if the springs at
 their own gaps do not balance, the status is held anew (HOLD_ROUNDS
@@ -379,9 +381,13 @@ class Newton:
 
     # -- the iteration's linear solver ---------------------------------------
     low_rank = None          # _LowRank, kept while rotations stay small
-    #: IMPL-EX: the matrix has the geometric stiffness (_WithGeometric);
-    #: switched by _held_increment
-    geometric = True
+    #: the iteration's matrix is the whole present one, with the geometric
+    #: stiffness of the spring forces (IMPL-EX: _WithGeometric; past
+    #: GEOMETRIC_ANGLE: _Full), else the low-rank modified Newton's
+    #: (_LowRank); switched by _increment_or_retry
+    whole = True
+    #: _Full served an iteration of the present increment
+    full_used = False
 
     def linear(self, state, tri):
         """The linear solver of this iteration: _LowRank (one factorisation
@@ -390,7 +396,7 @@ class Newton:
         geometric stiffness assembled)."""
         local = self.local(state, tri)
         k, frames, turned = local
-        if not turned or self.implex is not None:
+        if not turned or not self.whole or self.implex is not None:
             if self.low_rank is None or not self.low_rank.update(k):
                 try:
                     self.low_rank = _LowRank(self, state, k, frames)
@@ -399,7 +405,7 @@ class Newton:
                     return _Full(self, self.stiffness(state, tri, local))
                 self.factorizations += 1
                 self.low_rank.update(k, limit=False)
-            if self.implex is not None and self.geometric:
+            if self.implex is not None and self.whole:
                 # (IMPL-EX: the geometric stiffness of the spring forces
                 # too, solved on the low-rank factors, renewed here when
                 # they no longer precondition; module docstring)
@@ -411,6 +417,7 @@ class Newton:
                 return _WithGeometric(self, self.stiffness(state, tri, (k, frames, True)),
                                       self.low_rank, renew)
             return self.low_rank
+        self.full_used = True
         return _Full(self, self.stiffness(state, tri, local))
 
 
@@ -734,8 +741,8 @@ def _run(case, model, recorder, *, max_steps=None, progress=None):
             goal = pos + sign * step
             if implex:
                 it_.hold_damage(_extrapolated_damage(m, saved, dmg_last, step / step_last))
-            ok, lam, its, ratio = _held_increment(it_, state, lam, goal, plan, sol.tolerance,
-                                                  controlled, saved)
+            ok, lam, its, ratio = _increment_or_retry(it_, state, lam, goal, plan,
+                                                      sol.tolerance, controlled, saved)
             held = it_.implex
             if ok and held is not None:
                 # the reactions of the equilibrium found (the damage held),
@@ -824,28 +831,29 @@ def _run(case, model, recorder, *, max_steps=None, progress=None):
 AUTO_MAX_INCREMENTS = 2000
 
 
-def _held_increment(nt, state, lam, goal, plan, tol, controlled, saved):
-    """_increment; under IMPL-EX, an increment that fails is made once more
-    with the other matrix (with the geometric stiffness of the spring
-    forces, _WithGeometric, or without it, the small-rotation _LowRank),
-    which then stays.  The Brazilian disc near its peak stalls without the
-    geometric stiffness; the notched beam on contact supports of
-    tests/test_newton_contact.py fails its first increment with it (12
-    halvings; the low-rank iteration converges) -- not for the term itself,
-    negligible there, but for the whole present matrix in place of the
-    low-rank one's."""
+def _increment_or_retry(nt, state, lam, goal, plan, tol, controlled, saved):
+    """_increment; an increment that fails on the whole present matrix
+    (IMPL-EX's _WithGeometric, or _Full once a body has turned past
+    GEOMETRIC_ANGLE) is made once more on the low-rank modified Newton
+    (factorised afresh at the increment's start: the failed attempt may
+    have renewed the factors at a wild iterate), or the reverse, and that
+    matrix stays (Newton.whole).  The Brazilian disc near its peak stalls
+    without the geometric stiffness; the notched beam on contact supports
+    of tests/test_newton_contact.py fails its first increment on the whole
+    matrix (12 halvings, implicit on _Full as under IMPL-EX), not for the
+    geometric term, negligible there, but for the present matrix in place
+    of the low-rank one's, whose residual is exact too."""
+    nt.full_used = False
     ok, lam_new, its, ratio = _increment(nt, state, lam, goal, plan, tol, controlled)
-    if ok or nt.implex is None:
+    if ok or (nt.implex is None and nt.whole and not nt.full_used):
         return ok, lam_new, its, ratio
     _restore(state, saved)
     nt.hold = None
-    nt.geometric = not nt.geometric
-    # (factorised afresh at the increment's start: the failed attempt may
-    # have renewed the factors at a wild iterate)
+    nt.whole = not nt.whole
     nt.low_rank = None
     ok, lam_new, its2, ratio = _increment(nt, state, lam, goal, plan, tol, controlled)
     if not ok:
-        nt.geometric = not nt.geometric
+        nt.whole = not nt.whole
     return ok, lam_new, its + its2, ratio
 
 
