@@ -392,8 +392,9 @@ class Newton:
     def linear(self, state, tri):
         """The linear solver of this iteration: _LowRank (one factorisation
         updated by the springs that changed) while no body has turned by
-        more than GEOMETRIC_ANGLE, else _Full (the whole matrix with the
-        geometric stiffness assembled)."""
+        more than GEOMETRIC_ANGLE or `whole` is off, else _Full (the whole
+        matrix with the geometric stiffness assembled); under IMPL-EX
+        _WithGeometric on the low-rank factors while `whole` is on."""
         local = self.local(state, tri)
         k, frames, turned = local
         if not turned or not self.whole or self.implex is not None:
