@@ -204,6 +204,20 @@ def changed_springs(k, k0, out):
     return c
 
 
+@nb.njit(inline="always", cache=True)
+def _skew(x, y, z, out):
+    """out = [v]×, the cross-product matrix of v = (x, y, z)."""
+    out[0, 0] = 0.0
+    out[0, 1] = -z
+    out[0, 2] = y
+    out[1, 0] = z
+    out[1, 1] = 0.0
+    out[1, 2] = -x
+    out[2, 0] = -y
+    out[2, 1] = x
+    out[2, 2] = 0.0
+
+
 @nb.njit(cache=True)
 def _geometric(spring_bodies, r_a, r_b, frames, k, f, d, slots, data):
     """Initial-stress (geometric) blocks of the spring wrenches, −∂w/∂θ
@@ -217,26 +231,34 @@ def _geometric(spring_bodies, r_a, r_b, frames, k, f, d, slots, data):
       for the moment −r_b × f on b (a × (b × c) = b (a·c) − c (a·b))."""
     D = np.zeros((3, 3))
     C = np.zeros((3, 3))
+    Fx = np.zeros((3, 3))
+    Dx = np.zeros((3, 3))
+    RaD = np.zeros((3, 3))
+    RbD = np.zeros((3, 3))
+    # (scratch filled in place: no allocation per spring)
     for s in range(spring_bodies.shape[0]):
         a = spring_bodies[s, 0]
         b = spring_bodies[s, 1]
         ground = slots[s, 1] < 0
-        Fm = frames[s]
-        _world(Fm, k[s], C)
+        _world(frames[s], k[s], C)
         f0, f1, f2 = f[s, 0], f[s, 1], f[s, 2]
         d0, d1, d2 = d[s, 0], d[s, 1], d[s, 2]
         # D = −[f]× + C [d]×
-        Fx = np.array([[0.0, -f2, f1], [f2, 0.0, -f0], [-f1, f0, 0.0]])
-        Dx = np.array([[0.0, -d2, d1], [d2, 0.0, -d0], [-d1, d0, 0.0]])
+        _skew(f0, f1, f2, Fx)
+        _skew(d0, d1, d2, Dx)
         for i in range(3):
             for j in range(3):
                 D[i, j] = -Fx[i, j] + C[i, 0] * Dx[0, j] + C[i, 1] * Dx[1, j] + C[i, 2] * Dx[2, j]
         ra = r_a[s]
         rb = r_b[s]
-        Ra = np.array([[0.0, -ra[2], ra[1]], [ra[2], 0.0, -ra[0]], [-ra[1], ra[0], 0.0]])
-        Rb = np.array([[0.0, -rb[2], rb[1]], [rb[2], 0.0, -rb[0]], [-rb[1], rb[0], 0.0]])
-        RaD = Ra @ D
-        RbD = Rb @ D
+        # [r_a]× D and [r_b]× D
+        for j in range(3):
+            RaD[0, j] = -ra[2] * D[1, j] + ra[1] * D[2, j]
+            RaD[1, j] = ra[2] * D[0, j] - ra[0] * D[2, j]
+            RaD[2, j] = -ra[1] * D[0, j] + ra[0] * D[1, j]
+            RbD[0, j] = -rb[2] * D[1, j] + rb[1] * D[2, j]
+            RbD[1, j] = rb[2] * D[0, j] - rb[0] * D[2, j]
+            RbD[2, j] = -rb[1] * D[0, j] + rb[0] * D[1, j]
         fra = f0 * ra[0] + f1 * ra[1] + f2 * ra[2]
         frb = f0 * rb[0] + f1 * rb[1] + f2 * rb[2]
         # J[row block][col θ]: the derivative of the wrench; K_G = −J
