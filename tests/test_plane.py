@@ -112,6 +112,13 @@ def test_plane_stress_cantilever_against_timoshenko(run_case):
     ("domain: {circle: {center: [0, 0]}}", "domain.cylinder.radius", "a number"),
     ("domain: {box: [[0, 0], [1, 1]]}\nmesh: {kind: blocks, divisions: [2, 2, 2]}",
      "mesh.divisions", "one cell through its thickness"),
+    # a z component of a load would go to the held z, lost without a word
+    ("domain: {box: [[0, 0], [1, 1]]}\nloads: [{gravity: [0, 0, -9.81]}]", "loads[0].gravity",
+     "[x, y]"),
+    ("domain: {box: [[0, 0], [1, 1]]}\nloads: [{group: all, force: [1, 0, 5]}]",
+     "loads[0].force", "z component 5"),
+    ("domain: {box: [[0, 0], [1, 1]]}\nloads: [{group: all, moment: [0, 0, 5]}]",
+     "loads[0].moment", "one number, about z"),
 ])
 def test_plane_input_errors_name_the_key(text, where, what):
     """A plane case's geometry is 2D; a bad one is refused at its key."""

@@ -82,7 +82,7 @@ def lift_plane(data: dict, lines: dict, filename: str) -> None:
                 _mesh(p["mesh"], ("parts", name, "mesh"), fail)
     for key in ("groups", "boundary", "initial", "loads", "cuts", "contact", "output"):
         if key in data:
-            data[key] = _vectors(data[key], t)
+            data[key] = _vectors(data[key], t, path=(key,), fail=fail)
 
 
 def _mesh(m, path, fail):
@@ -94,20 +94,29 @@ def _mesh(m, path, fail):
                    f"give [nx, ny] (got {d})")
 
 
-def _vectors(node: Any, t: float, key: str = "") -> Any:
-    """Lift the 2D vectors, boxes and scalar moments of a section."""
+def _vectors(node: Any, t: float, key: str = "", path: tuple = (), fail=None) -> Any:
+    """Lift the 2D vectors, boxes and scalar moments of a section; a
+    3-vector with a z component, or a moment as a vector, is refused
+    (CaseError by `fail`): the plane's cells do not move in z, so such a
+    load would go to the held z and be lost without a word."""
     if isinstance(node, dict):
-        return {k: _vectors(v, t, k) for k, v in node.items()}
+        return {k: _vectors(v, t, k, path + (k,), fail) for k, v in node.items()}
     if key in _BOXES and _box2(node):
         return [[node[0][0], node[0][1], -t], [node[1][0], node[1][1], t]]
     if key in _VECTORS and _vec2(node):
         return list(node) + [None if any(x is None for x in node) else 0.0]
+    if fail is not None and key in _VECTORS and isinstance(node, list) and len(node) == 3 \
+            and all(_num(x) or x is None for x in node) and node[2] not in (None, 0, 0.0):
+        raise fail(path, f"a plane case's {key} is [x, y] (the x–y plane; got {node}, "
+                   f"whose z component {node[2]} the plane's cells cannot take)")
     if key in _ABOUT_Z and _num(node):
         return [0.0, 0.0, node]
+    if fail is not None and key in _ABOUT_Z and isinstance(node, list):
+        raise fail(path, f"a plane case's {key} is one number, about z (got {node})")
     if key == "points" and isinstance(node, list) and all(_vec2(p) for p in node):
         return [list(p) + [0.0] for p in node]
     if isinstance(node, list):
-        return [_vectors(v, t, key) for v in node]
+        return [_vectors(v, t, key, path + (i,), fail) for i, v in enumerate(node)]
     return node
 
 
