@@ -346,6 +346,17 @@ def test_the_kernels_watched_are_those_a_run_calls(tmp_path, kind):
     assert "not called" not in r.stdout, r.stdout
 
 
+def test_a_plane_scene_with_contact_watches_the_slab_kernels(tmp_path):
+    """A plane scene with `contact` steps on its slab's 3D passes
+    (solvers/plane.py plane_ready), so the plane kernel is never compiled:
+    watching it said "compiling kernels" on every run."""
+    from rbsm_dyn.case import load_case
+    path = _write(tmp_path, PLANE + "contact: {between: all}\n")
+    from rbsm_dyn.cli.notice import run_kinds
+    kinds = run_kinds(load_case(path))
+    assert "plane" not in kinds and kinds[0] == "dynamic" and "contact" in kinds
+
+
 # ------------------------------- item 7: contradictions and unit traps ---
 
 TWO_ITEMS = TINY.replace("boundary: [{face: xmin, fix: all}]",
