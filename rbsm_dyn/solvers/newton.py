@@ -750,7 +750,7 @@ def _run(case, model, recorder, *, max_steps=None, progress=None):
                 # branch of the displacement increment that started cracking
                 # (_branch_predictor)
                 start, lam_start = _branch_predictor(it_, state, saved, lam_saved, branch,
-                                                     plan, pos, goal)
+                                                     pos, goal)
             ok, lam, its, ratio = _increment_or_retry(it_, state, lam_start, goal, plan,
                                                       sol.tolerance, controlled, start)
             if ok and branch is not None and (lam - lam_saved) * branch[1] < 0.0:
@@ -932,7 +932,7 @@ def _auto_control(nt, state):
     return ("points", (a, m.spring_arm_a[s], pa), (b, m.spring_arm_b[s], pb), normal, s)
 
 
-def _branch_predictor(nt, state, saved, lam_saved, branch, plan, pos, goal):
+def _branch_predictor(nt, state, saved, lam_saved, branch, pos, goal):
     """The start of the first increment of the crack-opening control: the
     converged state `saved` (λ = lam_saved, opening `pos`) moved along the
     displacement increment that started cracking (branch: its converged
