@@ -733,6 +733,7 @@ def _run(case, model, recorder, *, max_steps=None, progress=None):
     implex = getattr(sol, "damage_update", "implicit") == "implex" and _damaging(m)
     dmg_last, step_last = state.spring_dmg.copy(), d
     implicit_next = False
+    branch = None
     notes = [it_.note] if it_.note else []
     while (auto and controlled and np.isinf(target_end)) or \
             sign * (target_end - pos) > 1e-12 * max(abs(target_end), d_max):
@@ -743,8 +744,19 @@ def _run(case, model, recorder, *, max_steps=None, progress=None):
             goal = pos + sign * step
             if implex and not implicit_next:
                 it_.hold_damage(_extrapolated_damage(m, saved, dmg_last, step / step_last))
-            ok, lam, its, ratio = _increment_or_retry(it_, state, lam, goal, plan,
-                                                      sol.tolerance, controlled, saved)
+            start, lam_start = saved, lam
+            if branch is not None:
+                # the first increment of the switched control starts on the
+                # branch of the displacement increment that started cracking
+                # (_branch_predictor)
+                start, lam_start = _branch_predictor(it_, state, saved, lam_saved, branch,
+                                                     pos, goal)
+            ok, lam, its, ratio = _increment_or_retry(it_, state, lam_start, goal, plan,
+                                                      sol.tolerance, controlled, start)
+            if ok and branch is not None and (lam - lam_saved) * branch[1] < 0.0:
+                # λ moved against the loading of the increment that started
+                # cracking: the spurious branch (_branch_predictor); halve
+                ok = False
             held = it_.implex
             if ok and held is not None:
                 # the reactions of the equilibrium found (the damage held),
@@ -788,6 +800,8 @@ def _run(case, model, recorder, *, max_steps=None, progress=None):
             # far side of a snap-back, where more than the crack has broken)
             plan = _auto_control(it_, state)
             if plan is not None:
+                tau_t, _ = probe_functional(m, state, plan)
+                trial_state, lam_t = _save_motion(state), lam
                 _restore(state, saved)
                 lam = lam_saved
                 tau, _ = probe_functional(m, state, plan)
@@ -803,7 +817,10 @@ def _run(case, model, recorder, *, max_steps=None, progress=None):
                 # first increment of the new control is implicit)
                 dmg_last, step_last = state.spring_dmg.copy(), d
                 implicit_next = True
+                branch = (trial_state, lam_t - lam_saved, tau_t - tau) \
+                    if tau_t > tau else None
                 continue
+        branch = None
         pos = goal
         implicit_next = False
         iterations.append(its)
@@ -913,6 +930,38 @@ def _auto_control(nt, state):
     pb = m.body_pos0[b] + R0[1] @ m.spring_arm_b[s]
     normal = quat_matrix_np(m.spring_frame0[s][None])[0][:, 0]
     return ("points", (a, m.spring_arm_a[s], pa), (b, m.spring_arm_b[s], pb), normal, s)
+
+
+def _branch_predictor(nt, state, saved, lam_saved, branch, pos, goal):
+    """The start of the first increment of the crack-opening control: the
+    converged state `saved` (λ = lam_saved, opening `pos`) moved along the
+    displacement increment that started cracking (branch: its converged
+    motion, Δλ, Δτ) scaled to the goal, s = (goal − pos)/Δτ ≤ 1 (Crisfield
+    vol. 1 §9.5-9.6: the predictor follows the previous increment's
+    direction).  From `saved` itself the first matrix holds a notch's faces,
+    touching at zero gap, closed, the beam uncracked, the crack-tip spring
+    near its neutral axis: δλ = gap/(c·δU_F) came out huge and negative, a
+    spurious branch with the load reversed (a plane notched beam, 10 mm
+    cells: λ = −118).  Returns (the start state, its λ); `state` is left
+    there."""
+    m = nt.m
+    n = nt.n
+    motion, dlam, dtau = branch
+    s = min(max((goal - pos) / dtau, 0.0), 1.0)
+    dU = np.zeros((n, 6))
+    dU[:, :3] = motion["body_pos"][:n] - saved["body_pos"][:n]
+    dq = quat_mul_np(motion["body_quat"][:n], _conj(saved["body_quat"][:n]))
+    dq[dq[:, 0] < 0] *= -1
+    sn = np.linalg.norm(dq[:, 1:], axis=1)
+    ang = 2.0 * np.arctan2(sn, dq[:, 0])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        fac = np.where(sn > 1e-300, ang / sn, 2.0)
+    dU[:, 3:] = dq[:, 1:] * fac[:, None]
+    _restore(state, saved)
+    apply_increment(m, state, s * dU)
+    lam = lam_saved + s * dlam
+    nt.set_prescribed(state, lam)
+    return _save(state), lam
 
 
 def _auto_increment(nt, state, plan, done):
