@@ -118,6 +118,11 @@ GEOMETRIC_ANGLE = 1e-2    # rotation [rad] beyond which the geometric stiffness 
 REF_FLOOR = 1e-3        # the force scale's floor, a share of the largest met (Newton.reference)
 TANGENT_BACKTRACK = 2   # halvings of a tangent step that raised the residual before the secant
 WILD_ANGLE = 0.5        # rotation [rad] of one body in one correction taken for divergence
+# the largest translation of one body in one correction, in multiples of the
+# increment's own displacement scale (Newton._step_scale): a longer
+# correction is shortened to it (_increment), and an active-set solve of the
+# first iteration that moves a body further is refused
+STEP_LIMIT = 10.0
 DIVERGED_RATIO = 1e2    # residual ratio taken for a diverged iteration (the increment is cut)
 # iterations without a better residual after which an increment is cut (8
 # before 2026-11-28; 6: three-point bending 29 -> 25 s, the notched beam
@@ -294,6 +299,11 @@ class Newton:
     def norm(self, r):
         return float(np.linalg.norm((r * self.w)[self.free]))
 
+    def _step_scale(self, dlam):
+        """The largest prescribed translation [m] of a change dlam of λ."""
+        up = self.Up.reshape(self.n, 6)[:, :3] if self.n else np.zeros((0, 3))
+        return float(abs(dlam) * np.max(np.linalg.norm(up, axis=1))) if up.size else 0.0
+
     ref_max = 0.0           # the largest force scale met so far
 
     def reference(self, r, lam, support):
@@ -314,6 +324,10 @@ class Newton:
     # _preconditioned_solve from one iteration to the next; symmetric: read by it)
     lu = None
     use_tangent = True
+    #: slipping contact faces at their secant μ|σn|/|τ*| K along the slip
+    #: (not SLIP_FLOOR of it) for the rest of the increment: set when a
+    #: correction had to be shortened (_increment, STEP_LIMIT)
+    slip_secant = False
     active = None           # the gaps (S, 3) the contact faces' tangents are taken at, None: the present
     symmetric = True
     cg_iterations = 0
@@ -336,7 +350,8 @@ class Newton:
             self.tangent = bool(_local_tangents(
                 self.laws,
                 (sstate, dmg), (state.spring_dmg, state.spring_kappa, state.spring_dp), gap,
-                cgap, OPEN_FRACTION, SLIP_FLOOR, self.use_tangent, k))
+                cgap, OPEN_FRACTION, 1.0 if self.slip_secant else SLIP_FLOOR, self.use_tangent,
+                k))
         else:
             k[:, [0, 1, 2], [0, 1, 2]] = self.laws[0]
         if self.hold is not None:
@@ -938,6 +953,7 @@ def _increment(nt, state, lam, goal, plan, tol, controlled):
     # once the residual grows (a softening lattice can send the tangent
     # iteration astray: Rots & Invernizzi 2004)
     nt.use_tangent = True
+    nt.slip_secant = False
     back = None
     seen = []
     rounds = 0
@@ -1051,6 +1067,7 @@ def _increment(nt, state, lam, goal, plan, tol, controlled):
         # supports of three-point bending)
         nt.active = None
         contact = None
+        kept = None
         for inner in range(ACTIVE_MAX):
             lin = nt.linear(state, tri)
             out = _direction(nt, lin, r, controlled)
@@ -1066,6 +1083,19 @@ def _increment(nt, state, lam, goal, plan, tol, controlled):
                 cr = float(c @ dU_r)
             if k > 1:
                 break
+            if kept is not None:
+                # a set that leaves a body free to fly (a contact face
+                # opened or slipping at zero force: the pin and the roller
+                # of a beam on rigid parts, whose set cycled until one left
+                # beam and roller sliding together by 1.2 mm under a
+                # platen pushed by 3 µm) is no prediction: the last set
+                # whose step stays within STEP_LIMIT of the first's is kept
+                # (the PDAS converges for a nondegenerate problem only,
+                # Hintermüller, Ito & Kunisch 2002, §4)
+                d_try = _combine(dU_r, dF, gap, cr, den, 1.0)[0] if controlled else dU_r
+                if _translation(nt, d_try) > STEP_LIMIT * kept[0]:
+                    dU_r, dF, den, cr = kept[1:]
+                    break
             if contact is None:
                 contact = _contact_faces(nt, state, tri)
                 if contact.size == 0:
@@ -1080,6 +1110,9 @@ def _increment(nt, state, lam, goal, plan, tol, controlled):
             dU, dlam = _combine(dU_r, dF, gap, cr, den, 1.0) if controlled else (dU_r, 0.0)
             if not np.all(np.isfinite(dU)):
                 break
+            if kept is None:
+                kept = (max(_translation(nt, dU), nt._step_scale(lam + dlam - lam_start)),)
+            kept = kept[:1] + (dU_r, dF, den if controlled else None, cr if controlled else None)
             cg = now.copy()
             cg[:, 0] = _predicted_gap(nt, state, dU, lam + dlam, lam)[:, 0]
             new = _contact_status(nt, state, cg, contact) > 0
@@ -1124,6 +1157,34 @@ def _increment(nt, state, lam, goal, plan, tol, controlled):
             lam += dlam
         if not np.all(np.isfinite(dU)):
             return False, lam, k, ratio
+        tr = _translation(nt, dU)
+        if k == 1:
+            scale = max(tr, nt._step_scale(lam - lam_start))
+        elif tr > STEP_LIMIT * scale > 0.0:
+            # a correction that translates a body by more than STEP_LIMIT
+            # times the increment's own displacements (the predictor's, the
+            # prescribed ones'): the direction of a near-mechanism (a body
+            # held by faces slipping at a friction force that does not
+            # grow with the slip, or by open faces at OPEN_FRACTION: the
+            # beam and roller of a beam on rigid parts, thrown by 1 mm a
+            # correction where the platen moved by 3 µm, then at rest with
+            # nothing touching, an equilibrium with no force at all) is
+            # shortened to that length (a step bound of the trust-region
+            # kind, Dennis & Schnabel 1983, §6.4; Crisfield vol. 1, §9.4's
+            # limit on the iterative displacement); the residual, exact,
+            # decides the next one
+            # ... and the slipping faces take their secant from here on:
+            # along the slip the consistent tangent of the Coulomb return
+            # is nil (SLIP_FLOOR of the secant), so a body held by friction
+            # alone (the roller, free along x, its faces slipping all one
+            # way at the first iterates) is thrown past the stick cone,
+            # 10⁻⁹ m wide, at every correction; the secant lands it inside
+            # (the secant for the unilateral and frictional springs: Rots &
+            # Invernizzi 2004's always-positive secant, as for damage)
+            f = STEP_LIMIT * scale / tr
+            dU = f * dU
+            lam = lam0 + f * (lam - lam0)
+            nt.slip_secant = True
         if k > 1 and nt.n and np.max(np.linalg.norm(dU.reshape(nt.n, 6)[:, 3:], axis=1)) > \
                 WILD_ANGLE:
             # a wild iterate: a correction that turns a body by more than
@@ -1144,6 +1205,13 @@ def _increment(nt, state, lam, goal, plan, tol, controlled):
             back = (_save_motion(state), lam0, ratio, dU.copy(), lam - lam0, 0)
         apply_increment(m, state, dU.reshape(nt.n, 6))
     return False, lam, NEWTON_MAX_IT, ratio
+
+
+def _translation(nt, dU):
+    """The largest translation [m] of one body in the correction dU."""
+    if not nt.n:
+        return 0.0
+    return float(np.max(np.linalg.norm(dU.reshape(nt.n, 6)[:, :3], axis=1)))
 
 
 def _direction(nt, lin, r, controlled):
