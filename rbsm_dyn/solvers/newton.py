@@ -748,10 +748,15 @@ def _run(case, model, recorder, *, max_steps=None, progress=None):
     implex = getattr(sol, "damage_update", "implicit") == "implex" and _damaging(m)
     dmg_last, step_last = state.spring_dmg.copy(), d
     notes = [it_.note] if it_.note else []
+    # the parts (model groups) whose flight _flown_part looks for
+    parts = [(p, np.asarray(m.groups[p])) for p in (getattr(case, "parts", None) or {})
+             if p in m.groups]
     while (auto and controlled and np.isinf(target_end)) or \
             sign * (target_end - pos) > 1e-12 * max(abs(target_end), d_max):
         step = min(d, sign * (target_end - pos))
         saved = _save(state)
+        flown_note = ""
+
         lam_saved = lam
         for cut in range(MAX_CUTS + 1):
             goal = pos + sign * step
@@ -779,6 +784,12 @@ def _run(case, model, recorder, *, max_steps=None, progress=None):
                     goal, target_end = pos, pos
                     break
             if ok:
+                flown = _flown_part(it_, state, saved, lam - lam_saved, parts)
+                if flown:
+                    # (an equilibrium with no force in it: not the path's)
+                    ok, ratio = False, np.inf
+                    flown_note = flown
+            if ok:
                 break
             _restore(state, saved)
             lam = lam_saved
@@ -790,6 +801,8 @@ def _run(case, model, recorder, *, max_steps=None, progress=None):
             msg = (f"increment {len(iterations) + 1} ({what}) did not converge in "
                    f"{NEWTON_MAX_IT} Newton iterations after {MAX_CUTS} halvings: residual "
                    f"ratio {ratio:.3g} > tolerance {sol.tolerance:g}")
+            if flown_note:
+                msg += "; " + flown_note
             frame(lam, ratio)
             recorder.fail(msg)
             raise RunFailed(msg)
@@ -1205,6 +1218,51 @@ def _increment(nt, state, lam, goal, plan, tol, controlled):
             back = (_save_motion(state), lam0, ratio, dU.copy(), lam - lam0, 0)
         apply_increment(m, state, dU.reshape(nt.n, 6))
     return False, lam, NEWTON_MAX_IT, ratio
+
+
+#: a part carrying less than this share of the largest force met, moved by
+#: more than FLOWN_MOTION times the increment's prescribed translation, has
+#: flown (_flown_part)
+FLOWN_FORCE = 1e-9
+FLOWN_MOTION = 10.0
+
+
+def _flown_part(nt, state, saved, dlam, parts):
+    """A message naming the part that flew in the increment just converged,
+    or "": a part (not wholly prescribed) on which no spring between it and
+    the rest acts (its faces all open, or touching at zero force) and which
+    moved by more than FLOWN_MOTION times the increment's prescribed
+    translation.  Such a state balances trivially -- nothing touches,
+    nothing is loaded -- but its position is arbitrary (the part's rigid
+    motion has no stiffness), so it is no equilibrium of the path: a beam on
+    rigid pin and roller parts converged so, the beam slid by 1.5 mm and the
+    roller by 3.7 mm under a platen pushed by 30 µm, every reaction 0.
+    (Unilateral contact has a solution only while the loads are
+    compatible with it, Fichera's condition: Kikuchi & Oden, Contact
+    Problems in Elasticity, 1988, §6.)  Only with prescribed
+    displacements; loads on a free part cannot balance."""
+    scale = nt._step_scale(dlam)
+    if not parts or scale <= 0.0:
+        return ""
+    m = nt.m
+    n = nt.n
+    moved = np.linalg.norm(state.body_pos[:n] - saved["body_pos"][:n], axis=1)
+    sb = m.spring_bodies
+    fmag = np.linalg.norm(state.spring_force, axis=1)
+    free = nt.free.reshape(n, 6)
+    limit = FLOWN_FORCE * max(nt.ref_max, 1e-300)
+    for name, ids in parts:
+        if ids.size == 0 or not np.any(free[ids]) or moved[ids].max() <= FLOWN_MOTION * scale:
+            continue
+        inside = np.zeros(n + 1, dtype=bool)
+        inside[ids] = True
+        cross = inside[sb[:, 0]] != inside[sb[:, 1]]
+        if fmag[cross].sum() <= limit:
+            return (f"part {name!r} lost all contact and moved by {moved[ids].max():.3g} m "
+                    f"(the prescribed displacements moved by {scale:.3g} m): nothing holds it, "
+                    f"and a static solution has no position for it; hold it (boundary fix) or "
+                    f"let the parts touch")
+    return ""
 
 
 def _translation(nt, dU):
