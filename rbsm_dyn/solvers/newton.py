@@ -118,6 +118,13 @@ GEOMETRIC_ANGLE = 1e-2    # rotation [rad] beyond which the geometric stiffness 
 REF_FLOOR = 1e-3        # the force scale's floor, a share of the largest met (Newton.reference)
 TANGENT_BACKTRACK = 2   # halvings of a tangent step that raised the residual before the secant
 WILD_ANGLE = 0.5        # rotation [rad] of one body in one correction taken for divergence
+# the largest translation of one body in one correction, in multiples of the
+# increment's own displacement scale (Newton._step_scale): a longer
+# correction is shortened to it (_increment), and an active-set solve of the
+# first iteration that moves a body further is refused (10: three-point
+# bending's softening corrections met it, 242 -> 289 iterations; 100: the
+# 3D beam on rigid parts, c7o, failed its first increment; 30: neither)
+STEP_LIMIT = 30.0
 DIVERGED_RATIO = 1e2    # residual ratio taken for a diverged iteration (the increment is cut)
 # iterations without a better residual after which an increment is cut (8
 # before 2026-11-28; 6: three-point bending 29 -> 25 s, the notched beam
@@ -294,6 +301,11 @@ class Newton:
     def norm(self, r):
         return float(np.linalg.norm((r * self.w)[self.free]))
 
+    def _step_scale(self, dlam):
+        """The largest prescribed translation [m] of a change dlam of λ."""
+        up = self.Up.reshape(self.n, 6)[:, :3] if self.n else np.zeros((0, 3))
+        return float(abs(dlam) * np.max(np.linalg.norm(up, axis=1))) if up.size else 0.0
+
     ref_max = 0.0           # the largest force scale met so far
 
     def reference(self, r, lam, support):
@@ -314,6 +326,10 @@ class Newton:
     # _preconditioned_solve from one iteration to the next; symmetric: read by it)
     lu = None
     use_tangent = True
+    #: slipping contact faces at their secant μ|σn|/|τ*| K along the slip
+    #: (not SLIP_FLOOR of it) for the rest of the increment: set when a
+    #: correction had to be shortened (_increment, STEP_LIMIT)
+    slip_secant = False
     active = None           # the gaps (S, 3) the contact faces' tangents are taken at, None: the present
     symmetric = True
     cg_iterations = 0
@@ -336,7 +352,8 @@ class Newton:
             self.tangent = bool(_local_tangents(
                 self.laws,
                 (sstate, dmg), (state.spring_dmg, state.spring_kappa, state.spring_dp), gap,
-                cgap, OPEN_FRACTION, SLIP_FLOOR, self.use_tangent, k))
+                cgap, OPEN_FRACTION, 1.0 if self.slip_secant else SLIP_FLOOR, self.use_tangent,
+                k))
         else:
             k[:, [0, 1, 2], [0, 1, 2]] = self.laws[0]
         if self.hold is not None:
@@ -735,10 +752,15 @@ def _run(case, model, recorder, *, max_steps=None, progress=None):
     implicit_next = False
     branch = None
     notes = [it_.note] if it_.note else []
+    # the parts (model groups) whose flight _flown_part looks for
+    parts = [(p, np.asarray(m.groups[p])) for p in (getattr(case, "parts", None) or {})
+             if p in m.groups]
     while (auto and controlled and np.isinf(target_end)) or \
             sign * (target_end - pos) > 1e-12 * max(abs(target_end), d_max):
         step = min(d, sign * (target_end - pos))
         saved = _save(state)
+        flown_note = ""
+
         lam_saved = lam
         for cut in range(MAX_CUTS + 1):
             goal = pos + sign * step
@@ -777,6 +799,12 @@ def _run(case, model, recorder, *, max_steps=None, progress=None):
                     goal, target_end = pos, pos
                     break
             if ok:
+                flown = _flown_part(it_, state, saved, lam - lam_saved, parts)
+                if flown:
+                    # (an equilibrium with no force in it: not the path's)
+                    ok, ratio = False, np.inf
+                    flown_note = flown
+            if ok:
                 break
             _restore(state, saved)
             lam = lam_saved
@@ -788,6 +816,8 @@ def _run(case, model, recorder, *, max_steps=None, progress=None):
             msg = (f"increment {len(iterations) + 1} ({what}) did not converge in "
                    f"{NEWTON_MAX_IT} Newton iterations after {MAX_CUTS} halvings: residual "
                    f"ratio {ratio:.3g} > tolerance {sol.tolerance:g}")
+            if flown_note:
+                msg += "; " + flown_note
             frame(lam, ratio)
             recorder.fail(msg)
             raise RunFailed(msg)
@@ -995,6 +1025,7 @@ def _increment(nt, state, lam, goal, plan, tol, controlled):
     # once the residual grows (a softening lattice can send the tangent
     # iteration astray: Rots & Invernizzi 2004)
     nt.use_tangent = True
+    nt.slip_secant = False
     back = None
     seen = []
     rounds = 0
@@ -1108,6 +1139,7 @@ def _increment(nt, state, lam, goal, plan, tol, controlled):
         # supports of three-point bending)
         nt.active = None
         contact = None
+        kept = None
         for inner in range(ACTIVE_MAX):
             lin = nt.linear(state, tri)
             out = _direction(nt, lin, r, controlled)
@@ -1123,6 +1155,19 @@ def _increment(nt, state, lam, goal, plan, tol, controlled):
                 cr = float(c @ dU_r)
             if k > 1:
                 break
+            if kept is not None:
+                # a set that leaves a body free to fly (a contact face
+                # opened or slipping at zero force: the pin and the roller
+                # of a beam on rigid parts, whose set cycled until one left
+                # beam and roller sliding together by 1.2 mm under a
+                # platen pushed by 3 µm) is no prediction: the last set
+                # whose step stays within STEP_LIMIT of the first's is kept
+                # (the PDAS converges for a nondegenerate problem only,
+                # Hintermüller, Ito & Kunisch 2002, §4)
+                d_try = _combine(dU_r, dF, gap, cr, den, 1.0)[0] if controlled else dU_r
+                if _translation(nt, d_try) > STEP_LIMIT * kept[0]:
+                    dU_r, dF, den, cr = kept[1:]
+                    break
             if contact is None:
                 contact = _contact_faces(nt, state, tri)
                 if contact.size == 0:
@@ -1137,6 +1182,9 @@ def _increment(nt, state, lam, goal, plan, tol, controlled):
             dU, dlam = _combine(dU_r, dF, gap, cr, den, 1.0) if controlled else (dU_r, 0.0)
             if not np.all(np.isfinite(dU)):
                 break
+            if kept is None:
+                kept = (max(_translation(nt, dU), nt._step_scale(lam + dlam - lam_start)),)
+            kept = kept[:1] + (dU_r, dF, den if controlled else None, cr if controlled else None)
             cg = now.copy()
             cg[:, 0] = _predicted_gap(nt, state, dU, lam + dlam, lam)[:, 0]
             new = _contact_status(nt, state, cg, contact) > 0
@@ -1181,6 +1229,34 @@ def _increment(nt, state, lam, goal, plan, tol, controlled):
             lam += dlam
         if not np.all(np.isfinite(dU)):
             return False, lam, k, ratio
+        tr = _translation(nt, dU)
+        if k == 1:
+            scale = max(tr, nt._step_scale(lam - lam_start))
+        elif tr > STEP_LIMIT * scale > 0.0:
+            # a correction that translates a body by more than STEP_LIMIT
+            # times the increment's own displacements (the predictor's, the
+            # prescribed ones'): the direction of a near-mechanism (a body
+            # held by faces slipping at a friction force that does not
+            # grow with the slip, or by open faces at OPEN_FRACTION: the
+            # beam and roller of a beam on rigid parts, thrown by 1 mm a
+            # correction where the platen moved by 3 µm, then at rest with
+            # nothing touching, an equilibrium with no force at all) is
+            # shortened to that length (a step bound of the trust-region
+            # kind, Dennis & Schnabel 1983, §6.4; Crisfield vol. 1, §9.4's
+            # limit on the iterative displacement); the residual, exact,
+            # decides the next one
+            # ... and the slipping faces take their secant from here on:
+            # along the slip the consistent tangent of the Coulomb return
+            # is nil (SLIP_FLOOR of the secant), so a body held by friction
+            # alone (the roller, free along x, its faces slipping all one
+            # way at the first iterates) is thrown past the stick cone,
+            # 10⁻⁹ m wide, at every correction; the secant lands it inside
+            # (the secant for the unilateral and frictional springs: Rots &
+            # Invernizzi 2004's always-positive secant, as for damage)
+            f = STEP_LIMIT * scale / tr
+            dU = f * dU
+            lam = lam0 + f * (lam - lam0)
+            nt.slip_secant = True
         if k > 1 and nt.n and np.max(np.linalg.norm(dU.reshape(nt.n, 6)[:, 3:], axis=1)) > \
                 WILD_ANGLE:
             # a wild iterate: a correction that turns a body by more than
@@ -1201,6 +1277,58 @@ def _increment(nt, state, lam, goal, plan, tol, controlled):
             back = (_save_motion(state), lam0, ratio, dU.copy(), lam - lam0, 0)
         apply_increment(m, state, dU.reshape(nt.n, 6))
     return False, lam, NEWTON_MAX_IT, ratio
+
+
+#: a part carrying less than this share of the largest force met, moved by
+#: more than FLOWN_MOTION times the increment's prescribed translation, has
+#: flown (_flown_part)
+FLOWN_FORCE = 1e-9
+FLOWN_MOTION = 10.0
+
+
+def _flown_part(nt, state, saved, dlam, parts):
+    """A message naming the part that flew in the increment just converged,
+    or "": a part (not wholly prescribed) on which no spring between it and
+    the rest acts (its faces all open, or touching at zero force) and which
+    moved by more than FLOWN_MOTION times the increment's prescribed
+    translation.  Such a state balances trivially -- nothing touches,
+    nothing is loaded -- but its position is arbitrary (the part's rigid
+    motion has no stiffness), so it is no equilibrium of the path: a beam on
+    rigid pin and roller parts converged so, the beam slid by 1.5 mm and the
+    roller by 3.7 mm under a platen pushed by 30 µm, every reaction 0.
+    (Unilateral contact has a solution only while the loads are
+    compatible with it, Fichera's condition: Kikuchi & Oden, Contact
+    Problems in Elasticity, 1988, §6.)  Only with prescribed
+    displacements; loads on a free part cannot balance."""
+    scale = nt._step_scale(dlam)
+    if not parts or scale <= 0.0:
+        return ""
+    m = nt.m
+    n = nt.n
+    moved = np.linalg.norm(state.body_pos[:n] - saved["body_pos"][:n], axis=1)
+    sb = m.spring_bodies
+    fmag = np.linalg.norm(state.spring_force, axis=1)
+    free = nt.free.reshape(n, 6)
+    limit = FLOWN_FORCE * max(nt.ref_max, 1e-300)
+    for name, ids in parts:
+        if ids.size == 0 or not np.any(free[ids]) or moved[ids].max() <= FLOWN_MOTION * scale:
+            continue
+        inside = np.zeros(n + 1, dtype=bool)
+        inside[ids] = True
+        cross = inside[sb[:, 0]] != inside[sb[:, 1]]
+        if fmag[cross].sum() <= limit:
+            return (f"part {name!r} lost all contact and moved by {moved[ids].max():.3g} m "
+                    f"(the prescribed displacements moved by {scale:.3g} m): nothing holds it, "
+                    f"and a static solution has no position for it; hold it (boundary fix) or "
+                    f"let the parts touch")
+    return ""
+
+
+def _translation(nt, dU):
+    """The largest translation [m] of one body in the correction dU."""
+    if not nt.n:
+        return 0.0
+    return float(np.max(np.linalg.norm(dU.reshape(nt.n, 6)[:, :3], axis=1)))
 
 
 def _direction(nt, lin, r, controlled):
