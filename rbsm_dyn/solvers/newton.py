@@ -760,7 +760,6 @@ def _run(case, model, recorder, *, max_steps=None, progress=None):
         step = min(d, sign * (target_end - pos))
         saved = _save(state)
         flown_note = ""
-
         lam_saved = lam
         for cut in range(MAX_CUTS + 1):
             goal = pos + sign * step
