@@ -216,9 +216,13 @@ def test_elastic_beam_on_rocking_parts(tmp_path, monkeypatch, limit):
     force, and the first increment's active set cycled into a mechanism
     (beam and roller sliding 1.2 mm under a 3 µm platen step); the run
     then "converged" with nothing touching, P = 0.  Now its elastic
-    stiffness P/CMOD lies within 3 % of the beam held at points under the
-    supports (3.60e7 N/m; measured 1.9 % below, the contact faces'
-    compliance), pin and roller carry P, and the beam stays in place.
+    compliance CMOD/P is LEFM's for a beam of span S = 4W with a notch
+    a = W/2 (Tada, Paris & Irwin, The Stress Analysis of Cracks Handbook;
+    Jenq & Shah 1985: CMOD = 4 σ a V1(α)/E, σ = 3PS/(2bW²), V1 = 0.76 −
+    2.28α + 3.87α² − 2.04α³ + 0.66/(1 − α)²) within 10 % (the cells are
+    5 mm against a 50 mm ligament; the beam held at points under the
+    supports instead of parts measured +7 %, this one +5 %), the pin
+    carries half of P, and the beam stays in place.
     limit 1e30: with the step bound off, the check of a flown part alone
     (newton._flown_part) cuts the increments that flew, to the same answer."""
     from rbsm_dyn.solvers import newton
@@ -227,8 +231,12 @@ def test_elastic_beam_on_rocking_parts(tmp_path, monkeypatch, limit):
     h = _run(ROCKERS, tmp_path)
     ob = h.observables
     P = -np.asarray(ob["P"])
-    assert P[-1] == pytest.approx(658.4, rel=0.01)
-    assert P[-1] / np.asarray(ob["cmod"])[-1] == pytest.approx(3.598e7, rel=0.03)
+    E, b, W, a, S = 30.0e9, 0.04, 0.1, 0.05, 0.4
+    al = a / W
+    v1 = 0.76 - 2.28 * al + 3.87 * al ** 2 - 2.04 * al ** 3 + 0.66 / (1 - al) ** 2
+    lefm = 4 * (3 * S / (2 * b * W ** 2)) * a * v1 / E        # CMOD per unit P [m/N]
+    assert P[-1] > 0.0
+    assert np.asarray(ob["cmod"])[-1] / P[-1] == pytest.approx(lefm, rel=0.10)
     assert abs(np.asarray(ob["R"])[-1] - 0.5 * P[-1]) <= 0.05 * P[-1]
     u = np.asarray(h.position[-1]) - np.asarray(h.position0)
     assert np.abs(u[:, 0]).max() < 3e-5
