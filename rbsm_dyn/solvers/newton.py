@@ -49,6 +49,15 @@ Control:
   Non-linear Finite Element Analysis of Solids and Structures, vol. 1,
   §9.6).  λ may fall: a snap-back in load against displacement is
   followed as long as the probe grows.
+* plain displacement control switches to the opening of the first crack
+  once cracking starts (_auto_control); that control's first increment
+  starts on the branch of the displacement increment that started it
+  (_branch_predictor).
+A correction that translates a body by more than STEP_LIMIT times the
+increment's own displacements is shortened (a trust-region step bound),
+and an increment that converges with a part loose and moved far
+(_flown_part: nothing touches it, so it balances trivially) is cut: a
+specimen on rigid pin and roller parts is a mechanism at λ = 0.
 IMPL-EX (``solver.damage_update: implex``; Oliver, Huespe & Cante 2008,
 "An implicit/explicit integration scheme to increase computability of
 non-linear material and contact/friction problems", CMAME 197, 1865):
