@@ -1147,7 +1147,8 @@ def _increment(nt, state, lam, goal, plan, tol, controlled):
         # supports of three-point bending)
         nt.active = None
         contact = None
-        kept = None
+        first = None            # the translation scale of the set's first try
+        good = None             # the last set's solution within STEP_LIMIT of it
         for inner in range(ACTIVE_MAX):
             lin = nt.linear(state, tri)
             out = _direction(nt, lin, r, controlled)
@@ -1163,7 +1164,7 @@ def _increment(nt, state, lam, goal, plan, tol, controlled):
                 cr = float(c @ dU_r)
             if k > 1:
                 break
-            if kept is not None:
+            if first is not None:
                 # a set that leaves a body free to fly (a contact face
                 # opened or slipping at zero force: the pin and the roller
                 # of a beam on rigid parts, whose set cycled until one left
@@ -1173,8 +1174,8 @@ def _increment(nt, state, lam, goal, plan, tol, controlled):
                 # (the PDAS converges for a nondegenerate problem only,
                 # Hintermüller, Ito & Kunisch 2002, §4)
                 d_try = _combine(dU_r, dF, gap, cr, den, 1.0)[0] if controlled else dU_r
-                if _translation(nt, d_try) > STEP_LIMIT * kept[0]:
-                    dU_r, dF, den, cr = kept[1:]
+                if _translation(nt, d_try) > STEP_LIMIT * first:
+                    dU_r, dF, den, cr = good
                     break
             if contact is None:
                 contact = _contact_faces(nt, state, tri)
@@ -1190,9 +1191,9 @@ def _increment(nt, state, lam, goal, plan, tol, controlled):
             dU, dlam = _combine(dU_r, dF, gap, cr, den, 1.0) if controlled else (dU_r, 0.0)
             if not np.all(np.isfinite(dU)):
                 break
-            if kept is None:
-                kept = (max(_translation(nt, dU), nt._step_scale(lam + dlam - lam_start)),)
-            kept = kept[:1] + (dU_r, dF, den if controlled else None, cr if controlled else None)
+            if first is None:
+                first = max(_translation(nt, dU), nt._step_scale(lam + dlam - lam_start))
+            good = (dU_r, dF, den if controlled else None, cr if controlled else None)
             cg = now.copy()
             cg[:, 0] = _predicted_gap(nt, state, dU, lam + dlam, lam)[:, 0]
             new = _contact_status(nt, state, cg, contact) > 0
