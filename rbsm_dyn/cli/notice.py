@@ -69,9 +69,8 @@ def kernel_is_cold(dispatcher):
 
 def _run_kind(case):
     mode = case.solver.mode
-    if mode == "dynamic" and case.plane is not None and getattr(case, "contact", None) is None:
-        # the plane passes (physics/plane.py); a plane scene with contact
-        # steps on its slab's 3D passes (solvers/plane.py plane_ready)
+    if mode == "dynamic" and case.plane is not None:
+        # the plane passes (physics/plane.py, plane_contact.py)
         return "plane"
     return ("dynamic" if mode == "dynamic" else mode if mode in ("linear", "modal")
             else "newton" if getattr(case.solver, "method", "") == "newton" else "relaxation")

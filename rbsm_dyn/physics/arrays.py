@@ -390,3 +390,42 @@ class PlaneState(NamedTuple):
     body_damp: np.ndarray
     body_reaction: np.ndarray
     spring_force: np.ndarray
+
+
+class PlaneContact(NamedTuple):
+    """Contact between any cells of a plane model (physics/plane_contact.py).
+    State, the 3D contact's arrays (model/contact.py ContactState): pairs
+    (P, 2) int32, slip (P, 3) [m] (z 0), sep (P,) int32 (a slab face row),
+    out (P, N_OUT), each body's pairs (ptr, entry), body_friction (N,) [J],
+    body_dwrench (N, 6) (columns 0, 1, 5).  Geometry: poly_ptr (N+1,),
+    poly_xy (V, 2) [m] each cell's polygon counter-clockwise about its
+    centroid in the world axes at rest; edge_face (V,) int32 the slab's side
+    face of edge k (vertex k to k + 1), face_edge (F,) int32 its inverse
+    (−1: a cap face); radius (N,) [m] about the centroid in the plane;
+    body_size, body_e, body_g, body_rigid, ground (4,) n, d, mu, kfac, zeta
+    as ContactArrays; thickness [m]; scratch (threads, rows, 3); overwrite:
+    the model has no springs."""
+    pairs: np.ndarray
+    slip: np.ndarray
+    sep: np.ndarray
+    out: np.ndarray
+    ptr: np.ndarray
+    entry: np.ndarray
+    body_friction: np.ndarray
+    body_dwrench: np.ndarray
+    poly_ptr: np.ndarray
+    poly_xy: np.ndarray
+    edge_face: np.ndarray
+    face_edge: np.ndarray
+    radius: np.ndarray
+    body_size: np.ndarray
+    body_e: np.ndarray
+    body_g: np.ndarray
+    body_rigid: np.ndarray
+    ground: np.ndarray
+    mu: float
+    kfac: float
+    zeta: float
+    thickness: float
+    scratch: np.ndarray
+    overwrite: bool

@@ -28,6 +28,7 @@ from .inelastic import (add_moment, clear_moment, finish_cell_stress, plastic_of
 from .laws import BROKEN, P_MODEL
 from .laws.plastic import CONTINUUM
 from .jit import NOALIAS
+from .plane_contact import plane_contact_step
 from .integrate import FIXED, FREE, VELOCITY, amplitude, ground_weight, move_ground
 from .springs import part_range
 from ..partition import PARTS
@@ -536,12 +537,14 @@ def plane_body_pass(t, stepping, pbodies, ploads, ps, parallel):
 
 
 @nb.njit(**JIT)
-def run_plane(n_steps, step0, stepping, pbodies, psprings, ploads, ps, hist, parallel):
+def run_plane(n_steps, step0, stepping, pbodies, psprings, ploads, ps, hist, contact, parallel):
     """Advance a plane model n_steps explicit steps in compiled code:
 
         springs   forces at x_n of every spring point: elastic (hist None,
                   plane_spring_pass) or inelastic with the spring history
                   hist (plane_inelastic_pass)
+        contact   contact between any cells (contact: PlaneContact, or
+                  None; physics/plane_contact.py)
         bodies    kick v, ω with the forces at t_n, drift x, turn θ
 
     Returns the step count after them."""
@@ -551,5 +554,7 @@ def run_plane(n_steps, step0, stepping, pbodies, psprings, ploads, ps, hist, par
             plane_spring_pass(psprings, ps, False, parallel)
         else:
             plane_inelastic_pass(psprings, ps, hist, False, stepping.dt, parallel)
+        if contact is not None:
+            plane_contact_step(contact, pbodies, ps, stepping.dt)
         plane_body_pass(t, stepping, pbodies, ploads, ps, parallel)
     return step0 + n_steps

@@ -34,7 +34,7 @@ from ..physics.passes import spring_forces
 from ..physics.plane import run_plane
 from ..physics.viscous import viscous_pass
 from ..case import DT_SAFETY_MAX
-from .plane import lift, plane_arrays, plane_ready, plane_state
+from .plane import lift, plane_arrays, plane_contact_arrays, plane_ready, plane_state
 from .checkpoint import Checkpointer, Interrupted, SignalGuard
 from .passes import (VISCOUS_STATE, Options, aux_stress, body_state, contact_arrays, history,
                      model_arrays, parallel_arg, viscous_springs)
@@ -167,7 +167,8 @@ def advance(model, state, n_steps, damping_alpha=0.0, damping_local=0.0, options
         state.step = run_plane(
             n_steps, state.step, Stepping(float(state.dt), float(damping_alpha),
                                           float(damping_local), float(state.t0)),
-            pb, psp, pl, plane_state(m, state), history(state, opt), parallel_arg(opt))
+            pb, psp, pl, plane_state(m, state), history(state, opt),
+            plane_contact_arrays(m, state.contact) if opt.contact else None, parallel_arg(opt))
         lift(m, state)
         return
     contact = contact_arrays(m, state.contact) if opt.contact else None

@@ -54,12 +54,13 @@ class Options:
 
     def passes(self, body="dynamic"):
         """The step's passes in order, by name (for `info` and the docs);
-        body "plane": a plane model's step (physics/plane.py), on the 3D
-        passes of its slab when it has contact or the Poisson correction."""
+        body "plane": a plane model's step (physics/plane.py,
+        plane_contact.py), on the 3D passes of its slab when it has the
+        Poisson correction or viscous springs."""
         if body == "plane":
-            if not (self.contact or self.poisson or self.viscous):
-                return ["springs:plane-" + ("inelastic" if self.inelastic else "elastic"),
-                        "bodies:plane"]
+            if not (self.poisson or self.viscous):
+                return (["springs:plane-" + ("inelastic" if self.inelastic else "elastic")]
+                        + (["contact:plane"] if self.contact else []) + ["bodies:plane"])
             body = "dynamic"
         out = ["springs:" + ("inelastic" if self.inelastic else "elastic")]
         if self.poisson:

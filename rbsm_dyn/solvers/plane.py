@@ -6,25 +6,29 @@ a run's chunks of steps go through the plane kernels on the in-plane
 projection of both:
 
     plane_arrays(model)    PlaneBodies, PlaneSprings, PlaneLoads (once per model)
+    plane_contact_arrays(model, cs)
+                           PlaneContact of a contact state (each chunk: the
+                           broad phase may have changed the pairs)
     plane_state(model, s)  the PlaneState of a State, kept on it between chunks
     lift(model, s)         the State's slab arrays from the PlaneState
 
 Which scenes step on the plane passes (plane_ready): elastic and
-inelastic springs (yield, rupture, cuts, interfaces), without contact
-between cells; a plane scene with `contact` steps on the 3D passes of its
-slab (the same answer, the 3D price) until the plane mode has a contact
-pass too.
+inelastic springs (yield, rupture, cuts, interfaces) and contact between
+cells (physics/plane_contact.py; its broad phase runs between chunks on
+the slab's arrays, as in 3D); a plane scene with the Poisson correction
+or viscous springs steps on the 3D passes of its slab (the same answer,
+the 3D price).
 """
 import numpy as np
 
-from ..physics.arrays import PlaneBodies, PlaneLoads, PlaneSprings, PlaneState
+from ..physics.arrays import PlaneBodies, PlaneContact, PlaneLoads, PlaneSprings, PlaneState
 from ..physics.integrate import refresh_all_rotations
 from ..physics.rotation import quat_matrix_np, quat_mul_np
 
 
 def plane_ready(model, options):
     """True when the plane passes cover the model's physics."""
-    return bool(model.plane) and not (options.poisson or options.contact or options.viscous)
+    return bool(model.plane) and not (options.poisson or options.viscous)
 
 
 def _z_column(rot):
@@ -126,5 +130,115 @@ def lift(model, state):
     state.body_vel[:, :2] = ps.body_vel
     state.body_angmom[:n, 2] = bodies.body_jz * ps.body_omega[:n]
     state.body_reaction[:, :2] = ps.body_reaction
+    # the wrench of the last step (a contact run's chunk length reads it:
+    # model/contact.py chunk_steps)
+    state.body_wrench[:, :2] = ps.body_wrench[:, :2]
+    state.body_wrench[:, 5] = ps.body_wrench[:, 2]
     refresh_all_rotations(n + 1, state.body_quat, model.body_quat0, state.body_rot,
                           state.body_dq)
+
+
+def plane_contact_geometry(model):
+    """(poly_ptr, poly_xy, edge_face, face_edge, radius, thickness) of a
+    plane model's contact (arrays.PlaneContact; built once, kept on it):
+    each cell's polygon from its prism's vertices on the upper cap (world
+    axes at rest, about its centroid), counter-clockwise by angle about
+    their mean, near-duplicates dropped; a cell whose ring is not convex
+    gets its convex hull (as model/contact.py gives the 3D contact);
+    each edge's side face of the slab: the face whose outward normal is
+    the edge's."""
+    got = model.__dict__.get("_plane_contact_geometry")
+    if got is not None:
+        return got
+    cm = model.contact
+    n = model.n_bodies
+    rot = quat_matrix_np(model.body_quat0[:n])
+    vptr = np.asarray(cm.vert_ptr, dtype=np.int64)
+    vcell = np.repeat(np.arange(n), np.diff(vptr))
+    world = np.einsum("vij,vj->vi", rot[vcell], cm.vert_xyz)
+    thickness = 2.0 * float(np.max(world[:, 2]))
+    top = world[:, 2] > 0.25 * thickness
+    cell = vcell[top]
+    xy = world[top, :2]
+    cnt = np.bincount(cell, minlength=n)
+    mean = np.stack([np.bincount(cell, xy[:, k], minlength=n) for k in range(2)], 1)
+    mean /= np.maximum(cnt, 1)[:, None]
+    ang = np.arctan2(xy[:, 1] - mean[cell, 1], xy[:, 0] - mean[cell, 0])
+    order = np.lexsort((ang, cell))
+    cell, xy = cell[order], xy[order]
+    r_cell = np.sqrt(np.maximum.reduceat(np.einsum("ij,ij->i", xy, xy),
+                                         np.r_[0, np.cumsum(cnt)[:-1]]))
+    # near-duplicates (the same corner twice in the cell's vertex list)
+    prev = np.r_[-1, cell[:-1]]
+    dup = (prev == cell) & (np.linalg.norm(xy - np.r_[xy[:1], xy[:-1]], axis=1)
+                            <= 1e-9 * r_cell[cell])
+    cell, xy = cell[~dup], xy[~dup]
+    cnt = np.bincount(cell, minlength=n)
+    ptr = np.r_[0, np.cumsum(cnt)].astype(np.int64)
+    # convexity: every turn left (cross ≥ −tol r²)
+    nxt = np.arange(len(xy)) + 1
+    nxt[ptr[1:] - 1] = ptr[:-1]
+    prv = np.arange(len(xy)) - 1
+    prv[ptr[:-1]] = ptr[1:] - 1
+    e1 = xy - xy[prv]
+    e2 = xy[nxt] - xy
+    cross = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+    bad = np.zeros(n, dtype=bool)
+    np.logical_or.at(bad, cell, cross < -1e-9 * r_cell[cell] ** 2)
+    if np.any(bad):
+        from scipy.spatial import ConvexHull
+        rings = np.split(xy, ptr[1:-1])
+        for c in np.nonzero(bad)[0]:
+            h = ConvexHull(rings[c])
+            rings[c] = rings[c][h.vertices]           # counter-clockwise in 2D
+        cnt = np.array([len(r) for r in rings])
+        ptr = np.r_[0, np.cumsum(cnt)].astype(np.int64)
+        xy = np.concatenate(rings)
+        cell = np.repeat(np.arange(n), cnt)
+        nxt = np.arange(len(xy)) + 1
+        nxt[ptr[1:] - 1] = ptr[:-1]
+    radius = np.sqrt(np.maximum.reduceat(np.einsum("ij,ij->i", xy, xy), ptr[:-1]))
+    # each edge's side face: the cell's face whose rest normal is the edge's
+    e = xy[nxt] - xy
+    en = np.stack([e[:, 1], -e[:, 0]], 1)
+    en /= np.maximum(np.linalg.norm(en, axis=1), 1e-300)[:, None]
+    fptr = np.asarray(cm.cell_face_ptr, dtype=np.int64)
+    fcell = np.repeat(np.arange(n), np.diff(fptr))
+    fn = np.einsum("fij,fj->fi", rot[fcell], cm.face_plane[:, :3])
+    nf = np.diff(fptr)
+    width = int(nf.max(initial=1))
+    cand = fptr[cell][:, None] + np.arange(width)[None, :]
+    valid = cand < fptr[cell + 1][:, None]
+    cand = np.where(valid, cand, 0)
+    dots = np.einsum("ek,ewk->ew", en, fn[cand][:, :, :2])
+    dots[~valid] = -2.0
+    dots[np.abs(fn[cand][:, :, 2]) > 0.5] = -2.0
+    best = np.argmax(dots, axis=1)
+    ok = dots[np.arange(len(xy)), best] > 1.0 - 1e-6
+    edge_face = np.where(ok, cand[np.arange(len(xy)), best], -1).astype(np.int32)
+    face_edge = np.full(len(fn), -1, dtype=np.int32)
+    face_edge[edge_face[ok]] = np.nonzero(ok)[0]
+    got = (ptr, np.ascontiguousarray(xy), edge_face, face_edge, radius, thickness)
+    model.__dict__["_plane_contact_geometry"] = got
+    return got
+
+
+def plane_contact_arrays(model, cs):
+    """The PlaneContact of a contact state cs (model/contact.py ContactState)."""
+    import numba
+
+    from ..physics.plane_contact import SCRATCH_ROWS_2D
+    from .passes import launch_threads
+    launch_threads()
+    cm = model.contact
+    ptr, xy, edge_face, face_edge, radius, thickness = plane_contact_geometry(model)
+    nblk = max(1, numba.get_num_threads())
+    scratch = model.__dict__.get("_plane_contact_scratch")
+    if scratch is None or scratch.shape[0] != nblk:
+        rows = SCRATCH_ROWS_2D(int(np.max(np.diff(ptr), initial=3)))
+        scratch = np.zeros((nblk, rows, 3))
+        model.__dict__["_plane_contact_scratch"] = scratch
+    return PlaneContact(cs.pairs, cs.slip, cs.sep, cs.out, cs.ptr, cs.entry, cs.body_friction,
+                        cs.body_dwrench, ptr, xy, edge_face, face_edge, radius, cm.body_size,
+                        cm.body_e, cm.body_g, cm.body_rigid, cm.ground, float(cm.mu),
+                        float(cm.kfac), float(cm.zeta), thickness, scratch, model.n_springs == 0)
