@@ -89,11 +89,12 @@ _SOURCE = {"concrete": {"compressive_strength": "f_cm, through the shear strengt
                     "K_IC = σ_t/6.88 (Zhang 2002), G = K_IC² (1 - ν²)/E",
                     "density": "typical of the rock"}}
 _DIMENSION = {"compressive_strength": "stress", "young": "stress", "tensile_strength": "stress",
-              "fracture_energy": "energy/area", "density": "density"}
+              "fracture_energy": "energy/area", "density": "density",
+              "shear_strength": "stress", "shear_fracture_energy": "energy/area"}
 _SI_UNIT = {"compressive_strength": "Pa", "young": "Pa", "tensile_strength": "Pa",
-            "fracture_energy": "J/m²",
-            "density": "kg/m³", "poisson": ""}
-#: the keys each preset takes beside ``model`` (the other's are refused)
+            "fracture_energy": "J/m²", "shear_strength": "Pa", "shear_fracture_energy": "J/m²",
+            "density": "kg/m³", "poisson": "", "friction": ""}
+#: the keys each preset takes beside ``model`` (the others' are refused)
 _OWN_KEYS = {"concrete": ("fc",), "rock": ("ucs", "rock", "mi", "modulus_ratio")}
 
 
@@ -119,38 +120,53 @@ def expand_presets(data: dict, lines: dict, filename: str) -> list[str]:
             return CaseError(filename, _nearest_line(lines, path), path, message)
         model = mat["model"]
         if model not in _OWN_KEYS:
-            raise fail("model", f"unknown material model {model!r} (concrete, rock)")
-        for other, keys in _OWN_KEYS.items():
-            for key in keys:
-                if other != model and key in mat:
-                    raise fail(key, f"{key} belongs to model: {other}, not model: {model} "
-                                    f"(which takes {', '.join(_OWN_KEYS[model])})")
-        if model == "concrete":
-            fc, values, label = _concrete_values(mat, factors, fail)
-        else:
-            fc, values, label = _rock_values(mat, factors, fail)
+            raise fail("model", f"unknown material model {model!r} ({', '.join(_OWN_KEYS)})")
+        for key in sorted({k for keys in _OWN_KEYS.values() for k in keys} - set(_OWN_KEYS[model])):
+            if key in mat:
+                owners = " or ".join(f"model: {m}" for m, keys in _OWN_KEYS.items() if key in keys)
+                raise fail(key, f"{key} belongs to {owners}, not model: {model} "
+                                f"(which takes {', '.join(_OWN_KEYS[model])})")
         rupture = mat.get("rupture")
-        derived = []
-        for key in ("density", "young", "poisson"):
-            if key not in mat:
-                mat[key] = values[key] / factors.get(_DIMENSION.get(key), 1.0)
-                derived.append(key)
         if rupture is None:
             rupture = mat["rupture"] = {}
+        values_of = {"concrete": _concrete_values, "rock": _rock_values}[model]
+        fc, values, label = values_of(mat, factors, fail)
+        derived = []
+        for key in ("density", "young", "poisson", "friction"):
+            if key in values and key not in mat:
+                mat[key] = values[key] / factors.get(_DIMENSION.get(key), 1.0)
+                derived.append(key)
         if isinstance(rupture, dict) and "strain" not in rupture:
+            mixed = rupture.get("law", "mixed_mode") == "mixed_mode"
             for key in ("tensile_strength", "fracture_energy"):
                 if key not in rupture:
                     rupture[key] = values[key] / factors.get(_DIMENSION[key], 1.0)
                     derived.append(key)
-            if "shear_strength" not in rupture and "compressive_strength" not in rupture \
-                    and rupture.get("law", "mixed_mode") == "mixed_mode" \
+            if fc is not None and "shear_strength" not in rupture \
+                    and "compressive_strength" not in rupture and mixed \
                     and rupture.get("values", "material") == "material":
                 # the specimen fails at f_c (compression_calibration.py)
                 rupture["compressive_strength"] = fc
                 derived.append("compressive_strength")
+            for key in ("shear_strength", "shear_fracture_energy"):
+                # a preset's shear strength and mode-II energy, if it has
+                # them; not with law tension, nor beside a compressive strength
+                if key in values and key not in rupture and mixed \
+                        and "compressive_strength" not in rupture:
+                    rupture[key] = values[key] / factors.get(_DIMENSION[key], 1.0)
+                    derived.append(key)
         shown = ", ".join(f"{k} {_fmt(values[k], k)} ({_SOURCE[model][k]})" for k in derived)
         notes.append(f"materials.{name}: {label}: {shown or 'every value given'}")
     return notes
+
+
+def _ratio(mat, key, low, fail, high=2000.0):
+    """``mat[key]`` if given, checked to be a number in [low, high]."""
+    v = mat.get(key)
+    if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float))
+                          or not low <= v <= high):
+        raise fail(key, f"{key} must be a number in [{low:g}, {high:g}], not {v!r}")
+    return v
 
 
 def _strength(mat, key, factors, fail, needs, lo, hi, what):
@@ -190,10 +206,7 @@ def _rock_values(mat, factors, fail):
                            "modulus_ratio instead)")
     mr, mi, density = ROCKS.get(kind, (None, None, 2650.0))
     for key, low in (("mi", 1.0), ("modulus_ratio", 50.0)):
-        v = mat.get(key)
-        if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float))
-                              or not low <= v <= 2000.0):
-            raise fail(key, f"{key} must be a number in [{low:g}, 2000], not {v!r}")
+        _ratio(mat, key, low, fail)
     mi = mat.get("mi", mi)
     mr = mat.get("modulus_ratio", mr)
     label = (f"{kind or 'rock'} of σ_ci = {sigma / 1e6:.4g} MPa (m_i {_show(mi)}, "
