@@ -71,13 +71,18 @@ class Material(_Node):
     (the mean cylinder compressive strength f_cm) fills in those not given
     from the fib Model Code 2010, ``model: rock`` with ``ucs`` (σ_ci) and
     ``rock`` (or ``mi`` and ``modulus_ratio``) from the Hoek–Brown
-    criterion and published ratios (case/presets.py)."""
+    criterion and published ratios, ``model: brick`` with ``fb`` (a
+    masonry unit's compressive strength) and ``model: mortar`` with ``fm``
+    (a mortar joint's, for a bonded interface's ``material``) from masonry
+    relations and typical values (case/presets.py)."""
     density: float = Field(gt=0)
     young: float = Field(gt=0)
     poisson: float = Field(ge=0, lt=0.5)
-    model: Optional[Literal["concrete", "rock"]] = None
+    model: Optional[Literal["concrete", "rock", "brick", "mortar"]] = None
     fc: Optional[float] = Field(default=None, gt=0)
     ucs: Optional[float] = Field(default=None, gt=0)
+    fb: Optional[float] = Field(default=None, gt=0)   # model: brick, the unit's f_b
+    fm: Optional[float] = Field(default=None, gt=0)   # model: mortar, the mortar's f_m
     rock: Optional[str] = None
     mi: Optional[float] = Field(default=None, gt=0)
     modulus_ratio: Optional[float] = Field(default=None, gt=0)

@@ -31,6 +31,8 @@ DIMENSIONS: dict[tuple[type, str], str] = {
     (Material, "young"): "stress",
     (Material, "fc"): "stress",
     (Material, "ucs"): "stress",
+    (Material, "fb"): "stress",
+    (Material, "fm"): "stress",
     (Yield, "stress"): "stress",
     (Yield, "cohesion"): "stress",
     (Yield, "tension"): "stress",
