@@ -84,6 +84,11 @@ class ContactModel:
     zeta: float
     skin: float
     n_hull: int = 0           # cells replaced by their convex hulls
+    #: (N,) [m] how far a vertex lies from the cell's axes of turning: the
+    #: radius, or in a plane model (turns about z alone) the distance in
+    #: the plane, so that the rebuild test and the chunk length do not
+    #: count the slab's thickness as a lever (rebuild, chunk_steps)
+    turn_radius: np.ndarray = None
 
 
 def build_contact(case, model, setting):
@@ -107,6 +112,12 @@ def build_contact(case, model, setting):
     plane = planes_from_loops(pptr, local)
     dist = np.sqrt(np.einsum("ij,ij->i", local, local))
     radius = np.maximum.reduceat(dist, cell_loop_ptr[:-1])
+    turn_radius = radius
+    if model.plane:
+        # the vertices' distance from the z axis through the centroid
+        # (world axes at rest: R0 x of the principal-frame vertex x)
+        xy = np.einsum("nik,nk->ni", R0[vcell], vert)[:, :2]
+        turn_radius = np.sqrt(np.maximum.reduceat(np.einsum("ij,ij->i", xy, xy), vptr[:-1]))
 
     parts = scene_parts(case)
     names = [p.name for p in parts]
@@ -147,7 +158,7 @@ def build_contact(case, model, setting):
         body_part=body_part, allowed=allowed, nbr_key=nbr_key, spring_pair=spring_pair,
         ground=g, has_ground=ground is not None, mu=float(mu), kfac=float(kfac),
         zeta=float(zeta),
-        skin=float(skin), n_hull=n_hull)
+        skin=float(skin), n_hull=n_hull, turn_radius=turn_radius)
 
 
 @nb.njit(cache=True)
@@ -285,7 +296,7 @@ def rebuild(model, state, force=False):
     if not force and cs.builds:
         moved = np.linalg.norm(state.body_pos[:n] - cs.x_build[:n], axis=1)
         dot = np.abs(np.einsum("ij,ij->i", state.body_quat[:n], cs.q_build))
-        moved += cm.radius * 2.0 * np.arccos(np.minimum(dot, 1.0))
+        moved += cm.turn_radius * 2.0 * np.arccos(np.minimum(dot, 1.0))
         if cm.has_ground:
             # the ground's move towards or away from the cells
             moved += abs(float(cm.ground[:3] @ (state.body_pos[n] - cs.x_build[n])))
@@ -315,7 +326,7 @@ def chunk_steps(model, state, dt, gravity):
     L = state.body_angmom[:n]
     wb = np.einsum("nki,nk->ni", R, L) / model.body_inertia
     spin = np.linalg.norm(wb, axis=1)
-    v = np.linalg.norm(state.body_vel[:n], axis=1) + spin * cm.radius
+    v = np.linalg.norm(state.body_vel[:n], axis=1) + spin * cm.turn_radius
     a = (np.linalg.norm(state.body_wrench[:n, :3], axis=1) / model.body_mass
          + float(np.linalg.norm(gravity)))
     vmax, amax = float(v.max(initial=0.0)), float(a.max(initial=0.0))

@@ -826,6 +826,12 @@ def _run(case, model, recorder, *, max_steps=None, progress=None):
                    f"ratio {ratio:.3g} > tolerance {sol.tolerance:g}")
             if flown_note:
                 msg += "; " + flown_note
+            elif not implex and _damaging(m) and np.any(_cracking(m, state)):
+                # a diffuse process zone (a splitting disc) makes the
+                # implicit update cycle; IMPL-EX does not (Oliver et al. 2008)
+                msg += ("; springs are softening in it: with many of them (a diffuse "
+                        "process zone, a splitting disc) give solver.damage_update: implex "
+                        "and a small control increment (docs/case_file.md)")
             frame(lam, ratio)
             recorder.fail(msg)
             raise RunFailed(msg)
