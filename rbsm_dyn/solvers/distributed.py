@@ -35,9 +35,17 @@ cell's force needs its linked neighbours' pressures, so those neighbours
 get their own links' springs and cells as well (domains.local_domains: a
 second layer of ghosts; local_poisson).
 
-Not distributed yet (refused with P > 1, naming the reason): plane models,
-and the static, linear and modal solvers.  Rank 0 builds and holds the
-whole model (the distributed build of DESIGN.md §10 is to come).
+A plane model steps on the plane passes (physics/plane.py,
+plane_contact.py) the same way: each rank its rows of the plane state
+(solvers/plane.py plane_state, which rank 0 keeps on the State and lifts
+to the slab's arrays after each chunk), the ghosts' positions and
+(cos θ, sin θ) traded after each step (with contact their velocities and
+spins too); a plane model with the Poisson correction or viscous springs
+steps on its slab's 3D passes, distributed as any 3D model.
+
+Not distributed yet (refused with P > 1, naming the reason): the static,
+linear and modal solvers.  Rank 0 builds and holds the whole model (the
+distributed build of DESIGN.md §10 is to come).
 """
 import os
 import time
@@ -45,8 +53,8 @@ import time
 import numpy as np
 
 from ..domains import ragged
-from ..physics.arrays import (Bodies, BodyState, SpringHistory, Stepping,
-                              ViscousSprings)
+from ..physics.arrays import (Bodies, BodyState, PlaneBodies, PlaneContact, PlaneState,
+                              SpringHistory, Stepping, ViscousSprings)
 from ..physics.integrate import run_dynamic
 from .passes import VISCOUS_STATE, Options, model_arrays, parallel_arg, viscous_springs
 
@@ -64,6 +72,14 @@ GHOST_WIDTH = 3 + 9 + 4
 BODY_FIELDS = ("body_pos", "body_quat", "body_vel", "body_angmom", "body_rot", "body_dq",
                "body_wrench", "body_support")
 BODY_FIELDS_N = ("body_work", "body_damp", "body_reaction")
+#: a plane model's (physics/plane.py): what its passes read of a ghost
+#: (the springs: position and cos, sin θ; contact: velocity and spin), its
+#: per body state arrays (N+1 rows, then N rows)
+PLANE_GHOST_FIELDS = ("body_pos", "body_cs")
+PLANE_CONTACT_GHOST_FIELDS = ("body_vel", "body_omega")
+PLANE_BODY_FIELDS = ("body_pos", "body_theta", "body_cs", "body_vel", "body_omega",
+                     "body_wrench", "body_support")
+PLANE_BODY_FIELDS_N = ("body_work", "body_damp", "body_reaction")
 #: the spring history's per-spring-point arrays (length 0 when unused)
 SPRING_FIELDS = ("spring_state", "spring_dp", "spring_kappa", "spring_dmg", "spring_wp",
                  "spring_wf", "spring_rate") + VISCOUS_STATE
@@ -92,12 +108,13 @@ def refusal(case, model):
     if mode != "dynamic":
         return (f"solver.mode {mode} runs on one process: the distributed run is explicit "
                 "dynamics only; start it without mpirun (or with -n 1)")
-    why = [(bool(model.plane), "a plane model (plane)")]
-    got = [w for on, w in why if on]
-    if got:
-        return (f"{', '.join(got)} not distributed yet: run this case on one process "
-                "(without mpirun, or -n 1)")
     return None
+
+
+def _plane(model):
+    """Whether the model steps on the plane passes (solvers/plane.py)."""
+    from .plane import plane_ready
+    return plane_ready(model, Options.of(model))
 
 
 def _rows(x, idx):
@@ -127,6 +144,58 @@ def local_arrays(model, dom):
                            ("body_fext", "body_mext", "body_ffol", "body_mfol",
                             "body_load_hist", "dof_kind", "dof_value", "dof_hist")})
     return b, s, lo
+
+
+def local_plane_arrays(model, dom):
+    """The plane kernels' PlaneBodies, PlaneSprings, PlaneLoads of one rank's
+    Domain (solvers/plane.py plane_arrays, its rows)."""
+    from .plane import plane_arrays
+    pb, ps, pl = plane_arrays(model)
+    rows = dom.bodies
+    rows_g = np.append(rows, model.n_bodies)
+    sp, fc = dom.springs, dom.faces
+    b = PlaneBodies(_rows(pb.body_mass, rows), _rows(pb.body_jz, rows),
+                    _rows(pb.body_pos0, rows_g))
+    s = ps._replace(
+        spring_bodies=dom.spring_bodies, spring_arm_a=_rows(ps.spring_arm_a, sp),
+        spring_arm_b=_rows(ps.spring_arm_b, sp), spring_slot=dom.spring_slot,
+        spring_area=_rows(ps.spring_area, sp), face_n0=_rows(ps.face_n0, fc),
+        face_k=_rows(ps.face_k, fc), face_h=_rows(ps.face_h, fc),
+        face_law=_rows(ps.face_law, fc), group_ptr=dom.group_ptr, phase_ptr=dom.phase_ptr,
+        cell_ivol=_rows(ps.cell_ivol, rows_g), cell_plane=_rows(ps.cell_plane, rows_g),
+        cell_lever=_rows(ps.cell_lever, rows_g), cell_k=_rows(ps.cell_k, rows_g),
+        cell_2g=_rows(ps.cell_2g, rows_g))
+    lo = pl._replace(**{f: _rows(getattr(pl, f), rows) for f in
+                        ("body_fext", "body_ffol", "body_load_hist", "dof_kind", "dof_value",
+                         "dof_hist")})
+    return b, s, lo
+
+
+def local_plane_contact(model, dom):
+    """A plane model's contact geometry of one rank's bodies
+    (solvers/plane.py plane_contact_geometry, arrays.PlaneContact): the
+    polygons of its cells, their edges' faces and the faces' edges
+    renumbered to the rank's faces (those of local_contact, `face_of`)."""
+    from .plane import plane_contact_geometry
+    cm = model.contact
+    ptr, xy, edge_face, face_edge, radius, thickness = plane_contact_geometry(model)
+    rows = dom.bodies
+    poly_ptr, verts = ragged(ptr, rows)
+    _, faces = ragged(cm.cell_face_ptr, rows)
+    f_local = np.full(len(cm.face_plane), -1, dtype=np.int64)
+    f_local[faces] = np.arange(len(faces))
+    v_local = np.full(len(xy), -1, dtype=np.int64)
+    v_local[verts] = np.arange(len(verts))
+    ef = edge_face[verts].astype(np.int64)
+    ef = np.where(ef >= 0, f_local[np.maximum(ef, 0)], -1)
+    fe = face_edge[faces].astype(np.int64)
+    fe = np.where(fe >= 0, v_local[np.maximum(fe, 0)], -1)
+    return {"poly_ptr": poly_ptr.astype(np.int64), "poly_xy": np.ascontiguousarray(xy[verts]),
+            "edge_face": ef.astype(np.int32), "face_edge": fe.astype(np.int32),
+            "radius": radius[rows], "thickness": float(thickness),
+            **{f: _rows(getattr(cm, f), rows) for f in
+               ("body_size", "body_e", "body_g", "body_rigid")},
+            "face_of": faces}
 
 
 def local_contact(model, dom):
@@ -205,13 +274,18 @@ def _face_rows(sep, face_of, to_local):
     return out
 
 
-def state_rows(state, dom, n_bodies, face_of=None):
+def state_rows(state, dom, n_bodies, face_of=None, plane=None):
     """One rank's rows of the whole state (dict of fresh arrays); with
-    contact (face_of: local_contact's) its pairs' and bodies' contact state."""
+    contact (face_of: local_contact's) its pairs' and bodies' contact state;
+    `plane`: a plane model's PlaneState (its rows in place of the slab's)."""
     rows = dom.bodies
     rows_g = np.append(rows, n_bodies)
-    out = {f: _rows(getattr(state, f), rows_g) for f in BODY_FIELDS}
-    out.update({f: _rows(getattr(state, f), rows) for f in BODY_FIELDS_N})
+    if plane is None:
+        out = {f: _rows(getattr(state, f), rows_g) for f in BODY_FIELDS}
+        out.update({f: _rows(getattr(state, f), rows) for f in BODY_FIELDS_N})
+    else:
+        out = {f: _rows(getattr(plane, f), rows_g) for f in PLANE_BODY_FIELDS}
+        out.update({f: _rows(getattr(plane, f), rows) for f in PLANE_BODY_FIELDS_N})
     out.update({f: _rows(getattr(state, f), dom.springs) for f in SPRING_FIELDS})
     out.update({f: _rows(getattr(state, f), rows_g) for f in CELL_FIELDS})
     out.update({f: _rows(getattr(state, f), rows) for f in POISSON_CELL_FIELDS})
@@ -238,16 +312,22 @@ class LocalRun:
         # rank 0's thread count (its --threads, solver.threads or default)
         numba.set_num_threads(max(1, min(pkg["threads"], numba.config.NUMBA_NUM_THREADS)))
         n = self.dom.n_local
+        self.plane = pkg.get("plane", False)
         st = {f: np.zeros_like(x) for f, x in pkg["state"].items()}
-        st["spring_force"] = np.zeros((len(self.dom.springs), 3))
+        st["spring_force"] = np.zeros((len(self.dom.springs), 2 if self.plane else 3))
         self.st = st
-        self.bs = BodyState(*(st[f] for f in BodyState._fields))
+        self.bs = (PlaneState if self.plane else BodyState)(
+            *(st[f] for f in (PlaneState if self.plane else BodyState)._fields))
         self.hist = None
         if self.options.inelastic:
             self.hist = SpringHistory(*(st[f] for f in SpringHistory._fields))
         # the ghosts' rows traded each step, as (n + 1, width) views
-        names = GHOST_FIELDS + (CONTACT_GHOST_FIELDS if self.options.contact else ()) \
-            + (CELL_GHOST_FIELDS if len(st["cell_dep"]) else ())
+        if self.plane:
+            names = PLANE_GHOST_FIELDS + (PLANE_CONTACT_GHOST_FIELDS if self.options.contact
+                                          else ())
+        else:
+            names = GHOST_FIELDS + (CONTACT_GHOST_FIELDS if self.options.contact else ())
+        names += CELL_GHOST_FIELDS if len(st["cell_dep"]) else ()
         self.ghost = [st[f].reshape(len(st[f]), -1) for f in names]
         self.aux = None
         if self.options.poisson:
@@ -281,6 +361,12 @@ class LocalRun:
         ptr, entry = body_pairs(pairs, self.dom.n_local)
         st = self.st
         scratch = np.zeros((max(1, numba.get_num_threads()),) + tuple(c["scratch_shape"]))
+        if self.plane:
+            return PlaneContact(pairs, st["c_slip"], st["c_sep"], st["c_out"], ptr, entry,
+                                st["c_friction"], st["c_dwrench"], g["poly_ptr"], g["poly_xy"],
+                                g["edge_face"], g["face_edge"], g["radius"], g["body_size"],
+                                g["body_e"], g["body_g"], g["body_rigid"], c["ground"], c["mu"],
+                                c["kfac"], c["zeta"], g["thickness"], scratch, c["overwrite"])
         return ContactArrays(pairs, st["c_slip"], st["c_sep"], st["c_out"], ptr, entry,
                              st["c_friction"], st["c_dwrench"], g["cell_face_ptr"],
                              g["loop_ptr"], g["loop_xyz"], g["face_plane"], g["cell_loop_ptr"],
@@ -306,8 +392,13 @@ class LocalRun:
         clock = time.perf_counter
         for k in range(n):
             t0 = clock()
-            run_dynamic(1, step0 + k, stepping, self.bodies, self.springs, self.loads, self.bs,
-                        self.hist, self.aux, self.contact, visc, par)
+            if self.plane:
+                from ..physics.plane import run_plane
+                run_plane(1, step0 + k, stepping, self.bodies, self.springs, self.loads,
+                          self.bs, self.hist, self.contact, par)
+            else:
+                run_dynamic(1, step0 + k, stepping, self.bodies, self.springs, self.loads,
+                            self.bs, self.hist, self.aux, self.contact, visc, par)
             t1 = clock()
             self.exchange()
             self.seconds[0] += t1 - t0
@@ -342,8 +433,11 @@ class LocalRun:
         """This rank's own bodies' and springs' rows (and the ground's,
         the same on every rank)."""
         k = self.dom.n_own
-        out = {f: self.st[f][:k].copy() for f in BODY_FIELDS + BODY_FIELDS_N}
-        out["ground"] = {f: self.st[f][-1].copy() for f in BODY_FIELDS + CELL_FIELDS
+        body = (PLANE_BODY_FIELDS + PLANE_BODY_FIELDS_N) if self.plane \
+            else (BODY_FIELDS + BODY_FIELDS_N)
+        out = {f: self.st[f][:k].copy() for f in body}
+        out["ground"] = {f: self.st[f][-1].copy() for f in
+                         (PLANE_BODY_FIELDS if self.plane else BODY_FIELDS) + CELL_FIELDS
                          if len(self.st[f])}
         own = self.dom.own_springs
         out.update({f: _rows(self.st[f], own) for f in SPRING_FIELDS})
@@ -358,13 +452,15 @@ class LocalRun:
         return out
 
 
-def _package(model, dom, options, state):
+def _package(model, dom, options, state, plane=None):
     """What a rank needs to step its share (pickled to it; again after
-    each broad phase of a run with contact: its ghosts change)."""
+    each broad phase of a run with contact: its ghosts change); `plane`: a
+    plane model's PlaneState (it steps on the plane passes)."""
     import numba
     opt = Options(inelastic=options.inelastic, poisson=options.poisson, contact=options.contact,
                   parallel=options.parallel and len(dom.springs) > 0, viscous=options.viscous)
-    pkg = {"domain": dom, "arrays": local_arrays(model, dom), "options": opt,
+    arrays = local_arrays(model, dom) if plane is None else local_plane_arrays(model, dom)
+    pkg = {"domain": dom, "arrays": arrays, "options": opt, "plane": plane is not None,
            "threads": numba.get_num_threads()}
     if options.poisson:
         pkg["poisson"] = local_poisson(model, dom)
@@ -373,10 +469,17 @@ def _package(model, dom, options, state):
         cm = model.contact
         pkg["contact"] = local_contact(model, dom)
         face_of = pkg["contact"]["face_of"]
+        if plane is not None:
+            pkg["contact"] = local_plane_contact(model, dom)
+            from ..physics.plane_contact import SCRATCH_ROWS_2D
+            from .plane import plane_contact_geometry
+            ptr = plane_contact_geometry(model)[0]
+            scratch_shape = (SCRATCH_ROWS_2D(int(np.max(np.diff(ptr), initial=3))), 3)
         pkg["contact_const"] = {"ground": cm.ground, "mu": float(cm.mu), "kfac": float(cm.kfac),
                                 "zeta": float(cm.zeta), "overwrite": model.n_springs == 0,
-                                "scratch_shape": state.contact.scratch.shape[1:]}
-    pkg["state"] = state_rows(state, dom, model.n_bodies, face_of)
+                                "scratch_shape": state.contact.scratch.shape[1:]
+                                if plane is None else scratch_shape}
+    pkg["state"] = state_rows(state, dom, model.n_bodies, face_of, plane)
     return pkg
 
 
@@ -419,10 +522,11 @@ class Leader:
         self.figures = summary(doms, model.n_springs)
         self.figures["method"] = self.method
         opt = Options.of(model)
+        ps = self._plane_state(model, state)
         for q in range(1, comm.size):
             comm.send(("setup", None), dest=q, tag=_CMD)
-            comm.send(_package(model, doms[q], opt, state), dest=q, tag=_TAG)
-        self.local = LocalRun(comm, _package(model, doms[0], opt, state))
+            comm.send(_package(model, doms[q], opt, state, ps), dest=q, tag=_TAG)
+        self.local = LocalRun(comm, _package(model, doms[0], opt, state, ps))
         self.setups += 1
         self._mark(state)
 
@@ -449,6 +553,15 @@ class Leader:
     def _mark(self, state):
         self.synced = (state.step, state.dt, state.t0)
 
+    @staticmethod
+    def _plane_state(model, state):
+        """A plane model's PlaneState (solvers/plane.py plane_state: kept on
+        the State between chunks, as one process keeps it), or None."""
+        if not _plane(model):
+            return None
+        from .plane import plane_state
+        return plane_state(model, state)
+
     def advance(self, model, state, n_steps, damping_alpha=0.0, damping_local=0.0,
                 options=None):
         """explicit.advance over the ranks: n_steps steps of the state."""
@@ -465,17 +578,21 @@ class Leader:
         cmd = ("advance", (int(n_steps), int(state.step), stepping, send, laws))
         for q in range(1, self.comm.size):
             self.comm.send(cmd, dest=q, tag=_CMD)
+        ps = self._plane_state(model, state)
         if send:
-            rows = [state_rows(state, d, model.n_bodies, f)
+            rows = [state_rows(state, d, model.n_bodies, f, ps)
                     for d, f in zip(self.doms, self.face_of)]
             self.local.load(self.comm.scatter(rows, root=0))
         step = self.local.steps(int(n_steps), int(state.step), stepping, laws)
         parts = self.comm.gather(self.local.own_rows(), root=0)
         n = model.n_bodies
+        body = state if ps is None else ps
+        fields = BODY_FIELDS + BODY_FIELDS_N if ps is None \
+            else PLANE_BODY_FIELDS + PLANE_BODY_FIELDS_N
         for d, part in zip(self.doms, parts):
             own = d.bodies[:d.n_own]
-            for f in BODY_FIELDS + BODY_FIELDS_N:
-                getattr(state, f)[own] = part[f]
+            for f in fields:
+                getattr(body, f)[own] = part[f]
             sp = d.springs[d.own_springs]
             for f in SPRING_FIELDS:
                 if len(getattr(state, f)):
@@ -491,8 +608,11 @@ class Leader:
                 cs.body_friction[own] = part["c_friction"]
                 cs.body_dwrench[own] = part["c_dwrench"]
         for f, x in parts[0]["ground"].items():
-            getattr(state, f)[n] = x
+            getattr(body if f in PLANE_BODY_FIELDS + BODY_FIELDS else state, f)[n] = x
         state.step = step
+        if ps is not None:
+            from .plane import lift
+            lift(model, state)
         self._mark(state)
 
 
