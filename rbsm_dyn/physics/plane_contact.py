@@ -99,12 +99,16 @@ def _edge_separates(w, x0, nx, k, y0, ny, tol):
 
 
 @nb.njit(inline="always", **JIT)
-def _clip(w, s0, ns, d0, n0, n1, d, lab, tol):
+def _clip(w, s0, ns, d0, n0, n1, d, lab, tol, cap):
     """Ring w[s0:s0 + ns] clipped to n·x ≤ d (+ tol) into w[d0:], each
     vertex labelled with the edge that leaves it (column 2: −1 an edge of
-    A, k ≥ 0 B's edge line k, which the clip adds); returns its size."""
+    A, k ≥ 0 B's edge line k, which the clip adds); returns its size (a
+    convex ring gains at most one vertex a clip; never more than cap rows
+    are written, whatever round-off does)."""
     m = 0
     for i in range(ns):
+        if m + 2 > cap:
+            break
         j = i + 1 if i + 1 < ns else 0
         sx, sy = w[s0 + i, 0], w[s0 + i, 1]
         ex, ey = w[s0 + j, 0], w[s0 + j, 1]
@@ -221,7 +225,7 @@ def overlap_2d(a, b, pos, cs, poly_ptr, poly_xy, radius, face_edge, edge_face, h
         n0, n1, d = _line(w, na, nb_, k)
         if n0 == 0.0 and n1 == 0.0:
             continue
-        m = _clip(w, src, m, dst, n0, n1, d, float(k), tol)
+        m = _clip(w, src, m, dst, n0, n1, d, float(k), tol, cap)
         src, dst = dst, src
         if m < 3:
             return 0.0, 0.0, 0.0, 0.0, 0.0, -1
@@ -241,7 +245,7 @@ def overlap_ground_2d(a, pos, cs, poly_ptr, poly_xy, radius, g0, g1, gd, w):
         return 0.0, 0.0, 0.0, 0.0, 0.0
     na = _ring(a, 0.0, 0.0, cs, poly_ptr, poly_xy, w, 0)
     tol = FLAT * 2.0 * ra
-    m = _clip(w, 0, na, na, g0, g1, d, 0.0, tol)
+    m = _clip(w, 0, na, na, g0, g1, d, 0.0, tol, na + 4)
     if m < 3:
         return 0.0, 0.0, 0.0, 0.0, 0.0
     return _polygon(w, na, m, 0, 0, True, g0, g1, d, tol)
