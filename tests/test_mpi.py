@@ -182,24 +182,29 @@ def test_two_processes_write_the_one_process_history(refs, name, threads):
         assert want["contact"]["body_friction"].sum() > 0  # fragments slid on the ground
 
 
-def test_a_two_process_checkpoint_restarts_on_one_and_on_two(refs):
-    """impulsive_beam stopped half-way on 2 processes (--max-steps: the
-    end-of-run checkpoint), continued with --restart on 1 and on 2
-    processes: both end in the uninterrupted run's state and history."""
+@pytest.mark.parametrize("name", ["impulsive_beam", "plane"])
+def test_a_two_process_checkpoint_restarts_on_one_and_on_two(refs, name):
+    """impulsive_beam, and the plane disc (its plane state and contact
+    pairs in the checkpoint), stopped at an output frame half-way on 2
+    processes (--max-steps: the end-of-run checkpoint), continued with
+    --restart on 1 and on 2 processes: both end in the uninterrupted run's
+    state and history."""
+    import rbsm_dyn
     d, ref = refs
+    case = case_path(d, name)
+    steps = rbsm_dyn.open_history(ref[name]).step
+    half = int(steps[len(steps) // 2])
     for n in (1, 2):
-        out = d / f"beam-restart-{n}.h5"
-        res = run_ranks(2, CASES / "impulsive_beam.yaml", "--out", out, "--max-steps", 1500,
-                        cwd=d)
+        out = d / f"{name}-restart-{n}.h5"
+        res = run_ranks(2, case, "--out", out, "--max-steps", half, cwd=d)
         assert res.returncode == 0, res.stderr
         if n == 1:
-            assert main([str(CASES / "impulsive_beam.yaml"), "--restart", str(out),
-                         "--quiet", *LIMIT["impulsive_beam"]]) == 0
+            assert main([str(case), "--restart", str(out), "--quiet",
+                         *LIMIT.get(name, ())]) == 0
         else:
-            res = run_ranks(2, CASES / "impulsive_beam.yaml", "--restart", out,
-                            *LIMIT["impulsive_beam"], cwd=d)
+            res = run_ranks(2, case, "--restart", out, *LIMIT.get(name, ()), cwd=d)
             assert res.returncode == 0, res.stderr
-        assert_same_history(out, ref["impulsive_beam"])
+        assert_same_history(out, ref[name])
 
 
 @pytest.mark.parametrize("case, key", [("cantilever_static", "solver.mode static")])
