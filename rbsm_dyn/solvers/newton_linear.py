@@ -15,7 +15,8 @@ from ..physics.rotation import quat_matrix_np
 from .assembly import assemble_triplets, changed_springs
 from .passes import model_arrays
 
-# (newton.py's local tangents take OPEN_FRACTION too: _local_tangents, _plastic_tangent)
+# (newton_tangent.py's local tangents take OPEN_FRACTION too: _local_tangents,
+# _plastic_tangent)
 OPEN_FRACTION = 1e-6    # secant stiffness of an open crack / the intact spring's
 GMRES_MAX = 60          # GMRES iterations (no restart) before refactorising
 CG_MAX = 30             # CG iterations before the preconditioner is refactorised
