@@ -109,6 +109,7 @@ from ..stiffness import free_rigid_modes, model_load, world_inertia
 from .explicit import RunFailed
 from .newton_linear import (OPEN_FRACTION, _Full, _LowRank, _WithGeometric, _dof_order,
                             one_blas_thread)
+from .newton_state import _restore, _save, _save_motion
 from .newton_tangent import _local_tangents
 from .passes import Options, aux_stress, body_state, history, model_arrays, parallel_arg
 from .statics import apply_increment, record_frame
@@ -1265,20 +1266,3 @@ def _set_reactions(nt, state, lam):
     r = state.body_wrench[:n, :3] + lam * nt.F.reshape(n, 6)[:, :3]
     cons = nt.m.dof_kind[:, :3] != FREE
     state.body_reaction[:] = np.where(cons, state.body_support[:n] - r, state.body_support[:n])
-
-
-_SAVED = ("body_pos", "body_quat", "body_rot", "body_dq", "spring_state", "spring_dp",
-          "spring_kappa", "spring_dmg", "spring_wp", "spring_wf", "cell_chi", "cell_wf")
-
-
-def _save_motion(state):
-    return {k: getattr(state, k).copy() for k in _SAVED[:4]}
-
-
-def _save(state):
-    return {k: getattr(state, k).copy() for k in _SAVED}
-
-
-def _restore(state, saved):
-    for k, v in saved.items():
-        getattr(state, k)[...] = v
