@@ -224,7 +224,7 @@ def test_elastic_beam_on_rocking_parts(tmp_path, monkeypatch, limit):
     supports instead of parts measured +7 %, this one +5 %), the pin
     carries half of P, and the beam stays in place.
     limit 1e30: with the step bound off, the check of a flown part alone
-    (newton._flown_part) cuts the increments that flew, to the same answer."""
+    (newton_contact._flown_part) cuts the increments that flew, to the same answer."""
     from rbsm_dyn.solvers import newton
     if limit is not None:
         monkeypatch.setattr(newton, "STEP_LIMIT", limit)
