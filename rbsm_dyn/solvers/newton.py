@@ -107,6 +107,7 @@ from ..physics.rotation import quat_matrix_np, quat_mul_np
 from ..physics.springs import spring_local_gap
 from ..stiffness import free_rigid_modes, model_load, world_inertia
 from .explicit import RunFailed
+from .implex import _damaging, _extrapolated_damage
 from .newton_linear import (OPEN_FRACTION, _Full, _LowRank, _WithGeometric, _dof_order,
                             one_blas_thread)
 from .newton_contact import (_contact_faces, _contact_status, _flown_part, _predicted_gap,
@@ -754,22 +755,6 @@ def _increment_or_retry(nt, state, lam, goal, plan, tol, controlled, saved):
     if not ok:
         nt.whole = not nt.whole
     return ok, lam_new, its + its2, ratio
-
-
-def _damaging(m):
-    """True when some spring point has a softening law (rupture.py SOFTENING,
-    MIXED): the laws IMPL-EX extrapolates."""
-    rupt = m.law_params[m.spring_law, P_RUPT] if m.n_springs else np.zeros(0)
-    return bool(np.any(np.isin(rupt, (SOFTENING, MIXED))))
-
-
-def _extrapolated_damage(m, saved, dmg_last, ratio):
-    """IMPL-EX's explicit extrapolation of the damage (Oliver, Huespe &
-    Cante 2008, CMAME 197, eq. 37, on D for the internal variable):
-    D̃ = D_n + ratio (D_n − D_(n−1)), ratio = Δτ_(n+1)/Δτ_n the increments
-    of the path parameter, within [D_n, 1]."""
-    dn = saved["spring_dmg"]
-    return np.clip(dn + ratio * (dn - dmg_last), dn, 1.0)
 
 
 def _cracking(m, state):
