@@ -30,7 +30,7 @@ def _local_tangents(laws, trial, committed, gap, cgap, open_fraction, slip_floor
     ∂f/∂e = (1 − D) K − K e ⊗ ∂D/∂e (∂D/∂e by central differences of the
     damage function; not symmetric); broken: contact at full normal
     stiffness when the faces overlap or touch at the gaps `cgap` (the
-    present gaps `gap`, or the active set _increment settles: δn ≤ 0), its
+    present gaps `gap`, or the active set newton._increment settles: δn ≤ 0), its
     friction at the elastic stiffness while it sticks and at the
     consistent tangent of the Coulomb return while it slips, along the slip
     regularised to `slip_floor` of the return's secant (the consistent
@@ -54,7 +54,7 @@ def _local_tangents(laws, trial, committed, gap, cgap, open_fraction, slip_floor
             # touching counts as closed (the active set of a semi-smooth
             # Newton: a face at zero gap takes its normal stiffness, and one
             # in tension opens at the next iteration, the residual being
-            # exact; at an increment's first step _increment decides the
+            # exact; at an increment's first step newton._increment decides the
             # touching faces by their predicted gaps, cgap)
             # (a capped spring's compaction, dp_n < 0, is its contact's zero)
             g0 = cgap[s, 0] - min(dp[s, 0], 0.0)
