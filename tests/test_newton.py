@@ -177,7 +177,7 @@ def test_end_moment_rolls_a_cantilever_into_a_half_circle(run_case):
 
 def test_geometric_stiffness_is_the_jacobian_of_the_residual():
     """At a state with rotations of 0.3 rad, the secant + geometric
-    stiffness of solvers/newton.py is the derivative of the spring
+    stiffness of solvers/newton_system.py is the derivative of the spring
     wrenches (central differences, h = 1e-7) to 1e-6 of the largest
     entry, where the material stiffness alone is off by about 1e-2."""
     from rbsm_dyn.case import load_case_text
