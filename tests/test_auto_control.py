@@ -1,5 +1,5 @@
 """Plain displacement control through a snap-back (issue 30: Newton fast
-without a `control` key; solvers/newton.py _auto_control).
+without a `control` key; solvers/newton_control.py _auto_control).
 
 A bar of blocks notched all round (cuts; the ligament the middle cell's
 face of a 3 × 3 section, the two layers beside it of a softening
@@ -140,7 +140,7 @@ def test_switch_starts_on_the_loading_branch(run_case):
     # sits near the neutral axis, and went onto a spurious branch with the
     # load reversed (λ = -0.136, then -118, failing after 2000 increments);
     # it now starts from the cracking increment scaled to the goal
-    # (solvers/newton.py _branch_predictor).  The path keeps the load's
+    # (solvers/newton_control.py _branch_predictor).  The path keeps the load's
     # sign, the deflection only grows to the one asked, and the peak is
     # that of the same beam under explicit CMOD control (883 N; 2 %)
     h = run_case(textwrap.dedent(BEAM))

@@ -177,7 +177,7 @@ def test_end_moment_rolls_a_cantilever_into_a_half_circle(run_case):
 
 def test_geometric_stiffness_is_the_jacobian_of_the_residual():
     """At a state with rotations of 0.3 rad, the secant + geometric
-    stiffness of solvers/newton.py is the derivative of the spring
+    stiffness of solvers/newton_system.py is the derivative of the spring
     wrenches (central differences, h = 1e-7) to 1e-6 of the largest
     entry, where the material stiffness alone is off by about 1e-2."""
     from rbsm_dyn.case import load_case_text
@@ -336,14 +336,14 @@ def test_low_rank_renews_past_its_size(monkeypatch):
 @pytest.mark.parametrize("slip", [False, True])
 def test_friction_tangent_is_the_jacobian_of_the_contact_traction(slip):
     """A closed broken face (δn < 0) with Coulomb friction μ = 0.5: the
-    local tangent Newton takes (solvers/newton.py _local_tangents) is the
+    local tangent Newton takes (solvers/newton_tangent.py _local_tangents) is the
     derivative of the traction of physics/laws/contact.py (central
     differences, h = 1e-6 of the gap, to 1e-6 of kn): the elastic springs
     while it sticks, the consistent tangent of the radial return while it
     slips (issue 30: Newton through contact)."""
     from rbsm_dyn.physics.laws import BROKEN, N_PARAMS, P_MU
     from rbsm_dyn.physics.laws.contact import contact_traction
-    from rbsm_dyn.solvers.newton import _local_tangents
+    from rbsm_dyn.solvers.newton_tangent import _local_tangents
     kn, ks, kt, mu = 3.0e9, 1.2e9, 0.9e9, 0.5
     gap = np.array([[-1.0e-6, 3.0e-6 if slip else 0.1e-6, -1.5e-6 if slip else 0.05e-6]])
     slip0 = np.array([[0.0, 0.1e-6, 0.05e-6]])

@@ -141,7 +141,7 @@ def test_implex_on_contact_supports_follows_the_implicit_path(implicit_beam, tmp
 
 
 def test_the_whole_matrix_falls_back_to_the_low_rank_one(implicit_beam, tmp_path, monkeypatch):
-    """The implicit path with the whole present matrix (solvers/newton.py
+    """The implicit path with the whole present matrix (solvers/newton_linear.py
     _Full, with the geometric stiffness, which a run takes once a body has
     turned past GEOMETRIC_ANGLE), here from the first iteration: on this
     beam its first increment failed 12 halvings, the contact faces cycling
@@ -151,8 +151,8 @@ def test_the_whole_matrix_falls_back_to_the_low_rank_one(implicit_beam, tmp_path
     negligible at these loads, so the path is the small-rotation one: its
     peak within 1 % of it, equilibrium at every frame, the energy balance
     within the issue's 1 % of the work."""
-    from rbsm_dyn.solvers import newton
-    monkeypatch.setattr(newton, "GEOMETRIC_ANGLE", -1.0)
+    from rbsm_dyn.solvers import newton_system
+    monkeypatch.setattr(newton_system, "GEOMETRIC_ANGLE", -1.0)
     h = _run(BEAM, tmp_path)
     ob = h.observables
     P = -np.asarray(ob["P"])
@@ -224,7 +224,7 @@ def test_elastic_beam_on_rocking_parts(tmp_path, monkeypatch, limit):
     supports instead of parts measured +7 %, this one +5 %), the pin
     carries half of P, and the beam stays in place.
     limit 1e30: with the step bound off, the check of a flown part alone
-    (newton._flown_part) cuts the increments that flew, to the same answer."""
+    (newton_contact._flown_part) cuts the increments that flew, to the same answer."""
     from rbsm_dyn.solvers import newton
     if limit is not None:
         monkeypatch.setattr(newton, "STEP_LIMIT", limit)

@@ -1,4 +1,4 @@
-"""Static Newton on a model no support holds (solvers/newton.py
+"""Static Newton on a model no support holds (solvers/newton_system.py
 _hold_rigid_motion): a body between self-balancing loads (a Brazilian
 disc) is held at one body that carries no force, and a resultant left over
 is balanced by inertia relief, the quasi-static response of the free body

@@ -25,8 +25,10 @@ from ..physics.laws import BROKEN
 from ..physics.rotation import quat_matrix_np
 from ..physics.viscous import viscous_pass
 from .explicit import RunFailed, load_amplitude
-from .newton import MAX_CUTS, NEWTON_MAX_IT, Newton, _increment, _restore, _save, _set_reactions
+from .newton import MAX_CUTS, NEWTON_MAX_IT, _increment, _set_reactions
 from .newton_linear import one_blas_thread
+from .newton_state import _restore, _save
+from .newton_system import Newton
 from .passes import (Options, body_state, model_arrays, parallel_arg, step_factors,
                      viscous_springs)
 from .statics import record_frame

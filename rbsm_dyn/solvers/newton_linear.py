@@ -1,10 +1,11 @@
-"""The linear solvers of the static Newton iteration (solvers/newton.py
-uses them; nothing here imports newton.py): K δU = r with the iteration
-matrix, from one SuperLU factorisation updated by Woodbury's identity
-while rotations stay small (_LowRank), or with the whole matrix by
-conjugate gradients or GMRES preconditioned by an earlier factorisation
-(_Full, _preconditioned_solve); the factorisation in nested-dissection
-order (_factorize, _dof_order); BLAS on one thread (one_blas_thread).
+"""The linear solvers of the static Newton iteration (solvers/newton_system.py's
+Newton uses them; nothing here imports the other Newton modules): K δU = r
+with the iteration matrix, from one SuperLU factorisation updated by
+Woodbury's identity while rotations stay small (_LowRank), or with the
+whole matrix by conjugate gradients or GMRES preconditioned by an earlier
+factorisation (_Full, _preconditioned_solve); the factorisation in
+nested-dissection order (_factorize, _dof_order); BLAS on one thread
+(one_blas_thread).
 """
 import numpy as np
 import scipy.sparse as sp
@@ -15,7 +16,8 @@ from ..physics.rotation import quat_matrix_np
 from .assembly import assemble_triplets, changed_springs
 from .passes import model_arrays
 
-# (newton.py's local tangents take OPEN_FRACTION too: _local_tangents, _plastic_tangent)
+# (newton_tangent.py's local tangents take OPEN_FRACTION too: _local_tangents,
+# _plastic_tangent)
 OPEN_FRACTION = 1e-6    # secant stiffness of an open crack / the intact spring's
 GMRES_MAX = 60          # GMRES iterations (no restart) before refactorising
 CG_MAX = 30             # CG iterations before the preconditioner is refactorised
