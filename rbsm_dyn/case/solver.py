@@ -95,7 +95,7 @@ class Solver(_Node):
     relaxation: Literal["adaptive", "local"] = "adaptive"
     damping_factor: float = Field(default=0.7, ge=0, lt=1)
     predictor: bool = True
-    damage_update: Literal["implicit", "implex"] = "implicit"
+    damage_update: Literal["auto", "implicit", "implex"] = "auto"
 
     def instants(self):
         """The instants [s] of a static run in time (``time``), ascending."""

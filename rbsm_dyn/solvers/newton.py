@@ -209,8 +209,11 @@ def _run(case, model, recorder, *, max_steps=None, progress=None):
     auto = not controlled and bool(np.any(it_.disp)) and state.spring_dmg is not None \
         and len(state.spring_dmg) > 0
     name = None if control is None else control.probe
-    # IMPL-EX (module docstring) when the case asks for it
-    implex = getattr(sol, "damage_update", "implicit") == "implex" and _damaging(m)
+    # IMPL-EX (module docstring) when the case asks for it; under `auto` (the
+    # default) from the first increment the implicit update cannot converge
+    update = getattr(sol, "damage_update", "auto")
+    implex = update == "implex" and _damaging(m)
+    fallback = update == "auto" and _damaging(m)
     dmg_last, step_last = state.spring_dmg.copy(), d
     implicit_next = False
     branch = None
@@ -275,12 +278,26 @@ def _run(case, model, recorder, *, max_steps=None, progress=None):
                 break
         if not ok:
             what = (f"{name} = {goal:.4g}" if controlled else f"λ = {goal:.4g}")
+            if fallback and not implex and not flown_note and \
+                    (max_steps is None or total < max_steps):
+                # the implicit damage update cycles (a diffuse process zone,
+                # a crack through cells that crack under the supports): the
+                # increment again, and the rest of the run, by IMPL-EX (Oliver,
+                # Huespe & Cante 2008), which converges where it does not
+                implex, implicit_next = True, False
+                notes.append(f"increment {len(iterations) + 1} ({what}) did not converge "
+                             f"under the implicit damage update (residual ratio {ratio:.3g} "
+                             f"after {MAX_CUTS} halvings): IMPL-EX from there on "
+                             "(solver.damage_update: implex; its error is of the order of "
+                             "its increment, docs/case_file.md); give damage_update: "
+                             "implicit to stop there instead")
+                continue
             msg = (f"increment {len(iterations) + 1} ({what}) did not converge in "
                    f"{NEWTON_MAX_IT} Newton iterations after {MAX_CUTS} halvings: residual "
                    f"ratio {ratio:.3g} > tolerance {sol.tolerance:g}")
             if flown_note:
                 msg += "; " + flown_note
-            elif not implex and _damaging(m) and np.any(_cracking(m, state)):
+            elif update == "implicit" and _damaging(m) and np.any(_cracking(m, state)):
                 # a diffuse process zone (a splitting disc) makes the
                 # implicit update cycle; IMPL-EX does not (Oliver et al. 2008)
                 msg += ("; springs are softening in it: with many of them (a diffuse "
