@@ -333,6 +333,78 @@ def _spin(i, body_rot, body_angmom, body_inertia):
 
 
 @nb.njit(inline="always", **JIT)
+def contact_law(fn, kn, ma, mb, ground, zeta, u0, u1, u2, n0, n1, n2, v0, v1, v2, vn, dt, kt,
+                kt_old, et_old, mu):
+    """The normal dashpot and the slip spring of a pair (one law for the 3D
+    pass and the plane pass, physics/plane_contact.py, which calls it with
+    z components 0): the penalty force fn [N] and normal stiffness kn, the
+    masses of a and b (ground: b is the ground), the slip u of the last
+    step, the normal n (out of b into a), a's material point's velocity
+    against b's v and its normal part vn, the slip spring's stiffness kt
+    now and at the last step (kt_old, its energy then et_old), the
+    friction μ.  Returns (fn with the dashpot, the dashpot force fd, the
+    new slip u ×3, the tangential force f ×3, the energy dissipated in the
+    step)."""
+    fd = 0.0
+    if zeta > 0.0:
+        # normal dashpot 2ζ√(k m*) (m* = m_a m_b/(m_a + m_b), the ground
+        # infinitely heavy), never pulling: F_n ≥ 0 (Cundall & Strack 1979)
+        ms = ma if ground else ma * mb / (ma + mb)
+        fd = -2.0 * zeta * math.sqrt(kn * ms) * vn
+        if fn + fd < 0.0:
+            fd = -fn
+        fn += fd
+    # slip spring: the old one turned into the present tangent plane
+    # (projected, its length kept), plus the tangential motion of the step
+    un = u0 * n0 + u1 * n1 + u2 * n2
+    old = math.sqrt(u0 * u0 + u1 * u1 + u2 * u2)
+    u0 -= un * n0
+    u1 -= un * n1
+    u2 -= un * n2
+    new = math.sqrt(u0 * u0 + u1 * u1 + u2 * u2)
+    if new > 0.0:
+        u0 *= old / new
+        u1 *= old / new
+        u2 *= old / new
+    # k_t follows the contact area, so ½ k_t |u|² is no potential: a
+    # stiffer spring at the same u would create energy.  The force is kept
+    # when the area grows (the new part comes in unstressed: u scaled by
+    # k_old/k_t) and falls with k_t when it shrinks (the part that left
+    # takes its share); either way the spring's energy falls, by
+    # E_old (1 − k_min/k_max), booked as dissipated with the friction, so
+    # that the contact never makes energy: the incremental shear force of
+    # Cundall & Strack (1979), F_t += −k_t Δu, with a lost area's share
+    # dropped (docs/theory.md, "Contact between cells").
+    diss = 0.0
+    if kt_old > 0.0 and kt != kt_old:
+        if kt > kt_old:
+            ratio = kt_old / kt
+            u0 *= ratio
+            u1 *= ratio
+            u2 *= ratio
+        else:
+            ratio = kt / kt_old
+        diss = et_old * (1.0 - ratio)
+    u0 += (v0 - vn * n0) * dt
+    u1 += (v1 - vn * n1) * dt
+    u2 += (v2 - vn * n2) * dt
+    f0, f1, f2 = -kt * u0, -kt * u1, -kt * u2
+    ft = math.sqrt(f0 * f0 + f1 * f1 + f2 * f2)
+    fmax = mu * fn
+    if ft > fmax:
+        r = fmax / ft if ft > 0.0 else 0.0
+        # the slip takes the excess (return to the Coulomb cone)
+        diss += fmax * (ft - fmax) / kt
+        f0 *= r
+        f1 *= r
+        f2 *= r
+        u0 *= r
+        u1 *= r
+        u2 *= r
+    return fn, fd, u0, u1, u2, f0, f1, f2, diss
+
+
+@nb.njit(inline="always", **JIT)
 def _pair_force(p, pairs, slip, sep, out, dt, body_pos, body_rot, body_vel, body_angmom,
                 body_inertia, body_mass, cell_face_ptr, loop_ptr, loop_xyz, face_plane,
                 cell_loop_ptr, vert_ptr, vert_xyz, radius, body_size, body_e, body_g,
@@ -425,63 +497,9 @@ def _pair_force(p, pairs, slip, sep, out, dt, body_pos, body_rot, body_vel, body
         v1 -= body_vel[n, 1]
         v2 -= body_vel[n, 2]
     vn = v0 * n0 + v1 * n1 + v2 * n2
-    fd = 0.0
-    if zeta > 0.0:
-        # normal dashpot 2ζ√(k m*) (m* = m_a m_b/(m_a + m_b), the ground
-        # infinitely heavy), never pulling: F_n ≥ 0 (Cundall & Strack 1979)
-        ms = body_mass[a] if b == n else body_mass[a] * body_mass[b] / (
-            body_mass[a] + body_mass[b])
-        fd = -2.0 * zeta * math.sqrt(kn * ms) * vn
-        if fn + fd < 0.0:
-            fd = -fn
-        fn += fd
-    # slip spring: the old one turned into the present tangent plane
-    # (projected, its length kept), plus the tangential motion of the step
-    un = u0 * n0 + u1 * n1 + u2 * n2
-    old = math.sqrt(u0 * u0 + u1 * u1 + u2 * u2)
-    u0 -= un * n0
-    u1 -= un * n1
-    u2 -= un * n2
-    new = math.sqrt(u0 * u0 + u1 * u1 + u2 * u2)
-    if new > 0.0:
-        u0 *= old / new
-        u1 *= old / new
-        u2 *= old / new
-    # k_t follows the contact area, so ½ k_t |u|² is no potential: a
-    # stiffer spring at the same u would create energy.  The force is kept
-    # when the area grows (the new part comes in unstressed: u scaled by
-    # k_old/k_t) and falls with k_t when it shrinks (the part that left
-    # takes its share); either way the spring's energy falls, by
-    # E_old (1 − k_min/k_max), booked as dissipated with the friction, so
-    # that the contact never makes energy: the incremental shear force of
-    # Cundall & Strack (1979), F_t += −k_t Δu, with a lost area's share
-    # dropped (docs/theory.md, "Contact between cells").
-    diss = 0.0
-    if kt_old > 0.0 and kt != kt_old:
-        if kt > kt_old:
-            ratio = kt_old / kt
-            u0 *= ratio
-            u1 *= ratio
-            u2 *= ratio
-        else:
-            ratio = kt / kt_old
-        diss = et_old * (1.0 - ratio)
-    u0 += (v0 - vn * n0) * dt
-    u1 += (v1 - vn * n1) * dt
-    u2 += (v2 - vn * n2) * dt
-    f0, f1, f2 = -kt * u0, -kt * u1, -kt * u2
-    ft = math.sqrt(f0 * f0 + f1 * f1 + f2 * f2)
-    fmax = mu * fn
-    if ft > fmax:
-        r = fmax / ft if ft > 0.0 else 0.0
-        # the slip takes the excess (return to the Coulomb cone)
-        diss += fmax * (ft - fmax) / kt
-        f0 *= r
-        f1 *= r
-        f2 *= r
-        u0 *= r
-        u1 *= r
-        u2 *= r
+    fn, fd, u0, u1, u2, f0, f1, f2, diss = contact_law(
+        fn, kn, body_mass[a], body_mass[b] if b < n else 0.0, b == n, zeta, u0, u1, u2,
+        n0, n1, n2, v0, v1, v2, vn, dt, kt, kt_old, et_old, mu)
     slip[p, 0] = u0
     slip[p, 1] = u1
     slip[p, 2] = u2

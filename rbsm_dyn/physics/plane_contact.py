@@ -38,7 +38,7 @@ import math
 import numba as nb
 import numpy as np
 
-from .collide import N_OUT, O_A, O_C, O_D, O_E, O_F, O_K, O_KT, O_N, O_W
+from .collide import N_OUT, O_A, O_C, O_D, O_E, O_F, O_K, O_KT, O_N, O_W, contact_law
 from .contact_geometry import FLAT
 from .jit import NOALIAS
 
@@ -363,43 +363,10 @@ def _pair_force_2d(p, pairs, slip, sep, out, dt, pos, cs, vel, omega, mass, poly
         v0 -= vel[n, 0]
         v1 -= vel[n, 1]
     vn = v0 * n0 + v1 * n1
-    fd = 0.0
-    if zeta > 0.0:
-        ms = mass[a] if b == n else mass[a] * mass[b] / (mass[a] + mass[b])
-        fd = -2.0 * zeta * math.sqrt(kn * ms) * vn
-        if fn + fd < 0.0:
-            fd = -fn
-        fn += fd
-    # the slip spring turned into the present tangent (collide.py)
-    un = u0 * n0 + u1 * n1
-    old = math.sqrt(u0 * u0 + u1 * u1)
-    u0 -= un * n0
-    u1 -= un * n1
-    new = math.sqrt(u0 * u0 + u1 * u1)
-    if new > 0.0:
-        u0 *= old / new
-        u1 *= old / new
-    diss = 0.0
-    if kt_old > 0.0 and kt != kt_old:
-        if kt > kt_old:
-            ratio = kt_old / kt
-            u0 *= ratio
-            u1 *= ratio
-        else:
-            ratio = kt / kt_old
-        diss = et_old * (1.0 - ratio)
-    u0 += (v0 - vn * n0) * dt
-    u1 += (v1 - vn * n1) * dt
-    f0, f1 = -kt * u0, -kt * u1
-    ft = math.sqrt(f0 * f0 + f1 * f1)
-    fmax = mu * fn
-    if ft > fmax:
-        r = fmax / ft if ft > 0.0 else 0.0
-        diss += fmax * (ft - fmax) / kt
-        f0 *= r
-        f1 *= r
-        u0 *= r
-        u1 *= r
+    # collide.py's dashpot and slip spring, z components 0
+    fn, fd, u0, u1, _, f0, f1, _, diss = contact_law(
+        fn, kn, mass[a], mass[b] if b < n else 0.0, b == n, zeta, u0, u1, 0.0, n0, n1, 0.0,
+        v0, v1, 0.0, vn, dt, kt, kt_old, et_old, mu)
     slip[p, 0] = u0
     slip[p, 1] = u1
     slip[p, 2] = 0.0
