@@ -20,6 +20,7 @@ import pytest
 
 from rbsm_dyn.__main__ import main
 from rbsm_dyn.solvers.checkpoint import ARRAYS, read_checkpoint
+from test_plane_contact import DISC
 
 CASES = Path(__file__).resolve().parent.parent / "cases"
 #: the runs cut short (CI's time): the beam's first 0.5 ms (of 3: yield
@@ -101,23 +102,10 @@ boundary: [{face: xmin, fix: all}, {surface: xmax, velocity: [2.0, 0, 0]}]
 solver: {mode: dynamic, end_time: 1.0e-5}
 output: {interval: 4.0e-7}
 """
-#: a plane model (the plane passes): a Voronoi disc thrown at a rough
-#: ground, shattering (rupture), its cells striking the ground and each
-#: other (plane contact pass), 2 threads a rank
-PLANE = """
-name: plane-disc
-plane: {kind: stress, thickness: 0.01}
-domain: {circle: {center: [0.0, 0.06], radius: 0.05}}
-mesh: {kind: voronoi, size: 0.005, seed: 3}
-materials:
-  c: {density: 2400, young: 30.0e9, poisson: 0.2,
-      rupture: {tensile_strength: 3.0e6, fracture_energy: 20.0}}
-initial: [{group: all, velocity: [3.0, -20.0]}]
-contact: {between: all, friction: 0.5, damping: 0.1,
-          ground: {point: [0, 0.0095], normal: [0, 1]}}
-solver: {mode: dynamic, end_time: 2.0e-4}
-output: {interval: 2.0e-5}
-"""
+#: a plane model (the plane passes): tests/test_plane_contact.py's Voronoi
+#: disc thrown at a rough ground, shattering (rupture), its cells striking
+#: the ground and each other (plane contact pass), 2 threads a rank
+PLANE = DISC.replace("END", "2.0e-4")
 INLINE = {"continuum": CONTINUUM, "poisson": POISSON, "plane": PLANE}
 
 
