@@ -24,6 +24,7 @@ RUN_IN_FULL = {
     "impact_plate": "test_contact_cases.py (impact)",
     "impulsive_beam": "test_case_answers.py",
     "kalthoff_winkler": "test_fracture_cases.py (kw_runs at 2 mm is the case's text)",
+    "spall_bar": "test_spall_bar.py (runs)",
     "three_point_bending": "test_case_answers.py (tpb)",
 }
 

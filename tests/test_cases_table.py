@@ -139,6 +139,19 @@ TABLE: dict[str, Check] = {
          "tests/test_contact_cases.py::test_arch_stands_below_the_collapse_load",
          "tests/test_contact_cases.py::test_arch_collapses_above_in_the_four_hinge_mechanism"),
         reads_case=True),
+    "spall_bar.yaml": Check(
+        "first crack at the 1D spall plane of d'Alembert's superposition (Kolsky 1953), "
+        "ξ_s = c0 T1/2 + σ_s c0 T/(2σ0): 61.9 mm at σ_s = f_t, 75.8 mm with `rate: fib2010` "
+        "(σ_s = 1.3147 f_t, the fib Model Code 2010 factor at σ0/(E T) = 4 /s); energy balance",
+        ("tests/test_spall_bar.py::test_spall_bar_first_crack_at_the_exact_plane",
+         "tests/test_spall_bar.py::"
+         "test_spall_bar_rate_raises_the_spall_strength_by_the_model_code_factor",
+         "tests/test_spall_bar.py::test_spall_bar_energy_balance",
+         "tests/test_spall_bar.py::test_exact_spall_plane_is_the_closed_form"),
+        reads_case=True,
+        note="the case file, and the case file with `rate: fib2010` taken out; the header's "
+             "free-end pullback, the spread of the cracking and the triangle's and linear "
+             "ramp's figures are not asserted"),
     "thick_cylinder.yaml": Check(
         "Lamé: u_r(a) = 41.7 µm, u_r(b) = 33.3 µm (walls within 3 %)",
         ("tests/test_surface_loads.py::test_lame_thick_cylinder_under_internal_pressure",),
