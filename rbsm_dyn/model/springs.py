@@ -108,6 +108,18 @@ def internal_springs(case, mesh, parts, body_part, body_rigid, laws):
     return internal, n_cut
 
 
+def _min_half_length(volume, area):
+    """The floor of a spring's half-length in a cell of `volume` across a
+    face of `area`: a twentieth of the smaller of the cell's size V^(1/3)
+    and its thickness across the face, V/A.  A box of any aspect keeps its
+    exact t/2 (V/A = t); with V^(1/3) alone, blocks thinner than 1/40 of
+    their width were caught and made too soft (a bar of 1.25 mm × 100 mm
+    blocks 27 % low in its axial frequency, tests/test_linear_modal.py,
+    until 2026-11-29).  No spring of the shipped cases was at either floor
+    (cases/*.yaml: the same half-lengths before and after)."""
+    return 0.05 * np.minimum(np.cbrt(volume), volume / np.maximum(area, 1e-300))
+
+
 def _half_lengths(mesh, f, a, b, nrm, body_rigid):
     """Half-lengths h_a, h_b of the internal springs: centroid to face along n."""
     cen = mesh.cell_centroid
@@ -116,12 +128,13 @@ def _half_lengths(mesh, f, a, b, nrm, body_rigid):
     h_b = np.einsum("ij,ij->i", cen[b] - fc, nrm)
     # A cell clipped around a notch tip or a hole may be non-convex, its
     # centroid behind one of its faces (h ≤ 0: a negative spring).  Such a
-    # face takes the distance's magnitude, at least a twentieth of the cell's
-    # size V^(1/3) (convex cells always have h > 0; only slivers thinner
-    # than that are touched)
-    h_min = 0.05 * np.cbrt(mesh.cell_volume)
-    h_a = np.maximum(np.abs(h_a), h_min[a])
-    h_b = np.maximum(np.abs(h_b), h_min[b])
+    # face takes the distance's magnitude, at least a twentieth of the
+    # cell's size across the face (convex cells always have h > 0; only
+    # slivers thinner than that are touched; _min_half_length)
+    h_min_a = _min_half_length(mesh.cell_volume[a], mesh.face_area[f])
+    h_min_b = _min_half_length(mesh.cell_volume[b], mesh.face_area[f])
+    h_a = np.maximum(np.abs(h_a), h_min_a)
+    h_b = np.maximum(np.abs(h_b), h_min_b)
     # a rigid body's side of a spring has no length (and no compliance)
     h_a = np.where(body_rigid[a], 0.0, h_a)
     h_b = np.where(body_rigid[b], 0.0, h_b)
@@ -219,7 +232,8 @@ def _support(case, mesh, parts, body_part, laws, j, item, name, fix, sel):
     cell = mesh.bface_cell[bf]
     nrm_b = mesh.bface_normal[bf]
     h = np.einsum("ij,ij->i", mesh.bface_centroid[bf] - mesh.cell_centroid[cell], nrm_b)
-    h = np.maximum(np.abs(h), 0.05 * np.cbrt(mesh.cell_volume[cell]))   # as _half_lengths
+    h = np.maximum(np.abs(h), _min_half_length(mesh.cell_volume[cell],
+                                               mesh.bface_area[bf]))   # as _half_lengths
     kk = e0[cell] / h
     axis_of = np.argmax(np.abs(nrm_b), axis=1)
     aligned = np.abs(nrm_b[np.arange(len(bf)), axis_of]) > 1.0 - 1e-12
