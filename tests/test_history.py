@@ -372,3 +372,25 @@ def test_staged_writer_replaces_the_file_only_at_its_first_frame(tmp_path):
     w.append_frame(10, 1e-3, _frame(1))
     w.close()
     _check_frames(open_history(path), 2)
+
+
+def test_truncate_drops_the_frames_after_those_kept(tmp_path):
+    """HistoryWriter.truncate(k) (a static run going back on its path,
+    solvers/newton.py): written and pending frames after the first k are
+    dropped, the frames appended next follow them, and a reader sees k + the
+    new ones with their own values."""
+    path = tmp_path / "cut.h5"
+    w = _writer(path)
+    w.set_buffering(frames=3)
+    _setup(w)
+    for k in range(5):                      # 3 written, 2 pending
+        w.append_frame(10 * k, 1e-3 * k, _frame(k))
+    with pytest.raises(ValueError):
+        w.truncate(6)
+    w.truncate(2)
+    assert w.frames == 2
+    for k in (2, 3):
+        w.append_frame(10 * k, 1e-3 * k, _frame(k))
+    w.close()
+    h = open_history(path)
+    _check_frames(h, 4)

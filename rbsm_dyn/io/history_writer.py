@@ -457,6 +457,25 @@ class HistoryWriter:
         self._last_write = _monotonic()
         return self._frames
 
+    def truncate(self, frames: int) -> None:
+        """Drop every frame after the first ``frames`` (pending ones too): a
+        static run that goes back on its path (solvers/newton.py, the
+        implicit update given up for IMPL-EX) replaces them.  The count
+        (root attribute ``frames``) falls first, so a reader never counts a
+        row that is about to go."""
+        self.flush_frames()
+        f = self._file()
+        if not 0 <= int(frames) <= self._frames:
+            raise ValueError(f"{self.path}: cannot keep {frames} frames, "
+                             f"{self._frames} are written")
+        f.attrs.modify("frames", np.int64(frames))
+        f.flush()
+        for s in self._series.values():
+            for ds in (s.step, s.time, s.value):
+                ds.resize(int(frames), axis=0)
+        f.flush()
+        self._frames = int(frames)
+
     # --------------------------------------------------------------- status
     def _set_status(self, status: str) -> None:
         f = self._file()

@@ -84,6 +84,10 @@ damage lags by one increment: a peak may pass the strength by what one
 increment adds (tests/test_auto_control.py), and the energy balance
 errs by O(increment) (the disc: 1.9 % of the work at increments of 10⁻⁶
 m of opening, 0.6 % at 5·10⁻⁷).
+Under ``damage_update: auto`` (the default) the implicit update runs until
+an increment fails all its halvings (IMPL-EX from there on) or it crawls
+(DIVE_CUTS: the run goes back to its last undamaged state, the history's
+later frames dropped, and on by IMPL-EX).
 An increment that does not converge in NEWTON_MAX_IT iterations is cut in
 half (from the last converged state) up to MAX_CUTS times; an increment
 that converges lets the next one grow by √(DESIRED_IT/iterations), between
@@ -151,6 +155,20 @@ HOLD_AFTER = 3
 # times an IMPL-EX increment may hold the status anew when the held one
 # proves no equilibrium at convergence (_increment); then it is cut
 HOLD_ROUNDS = 4
+# `damage_update: auto` gives the implicit update up when, once halvings
+# have brought the increment below DIVE_FRACTION of the one asked for,
+# DIVE_CUTS increments of that dive (before the step grows back above it)
+# had to be halved again: a step that keeps being cut after it has fallen
+# that far does not converge by getting smaller.  The Brazilian disc: cut
+# to 1/130 of its increment and still cut, 30-60 s an increment, at 0.41
+# of its load; three-point bending's one dive, to 1/300 at its peak, has
+# one halved increment and grows back by the 1.5 rule.  The run then goes
+# back to its last undamaged state and on by IMPL-EX from there (_run): the
+# disc's implicit crawl had left the path (IMPL-EX from the crawl's state,
+# at any increment, broke the disc at 0.41 of its load, where IMPL-EX from
+# the start and the explicit ramps split it at 0.82)
+DIVE_FRACTION = 1.0 / 16.0
+DIVE_CUTS = 3
 
 
 def run(case, model, recorder, *, max_steps=None, progress=None):
@@ -175,11 +193,13 @@ def _run(case, model, recorder, *, max_steps=None, progress=None):
     state.dt = 1.0
     t_wall = _time.perf_counter()
     record_frame(recorder, m, state, 0, 0.0, 0.0)
+    frames = [1]
 
     def frame(lam, ratio):
         # the work of the loads Newton balances (inertia relief included)
         load = None if it_.relief is None else lam * it_.F.reshape(m.n_bodies, 6)
         record_frame(recorder, m, state, total, lam, ratio, load=load)
+        frames[0] += 1
     control = getattr(sol, "control", None)
     plan = None
     if control is not None:
@@ -216,6 +236,13 @@ def _run(case, model, recorder, *, max_steps=None, progress=None):
     fallback = update == "auto" and _damaging(m)
     dmg_last, step_last = state.spring_dmg.copy(), d
     implicit_next = False
+    dive_cuts = 0           # halved increments of the present dive (DIVE_FRACTION)
+    # the last undamaged state, to go back to when the implicit update crawls
+    # (DIVE_CUTS; not once plain displacement control has switched itself)
+    undamaged = None
+    if fallback and not auto:
+        undamaged = (_save(state), lam, pos, 0, frames[0],
+                     getattr(recorder, "_path_work", None), peak)
     branch = None
     notes = [it_.note] if it_.note else []
     # the parts (model groups) whose flight _flown_part looks for
@@ -343,9 +370,44 @@ def _run(case, model, recorder, *, max_steps=None, progress=None):
         d = min(d_max, step * min(max(math.sqrt(DESIRED_IT / max(its, 1)), 1.0), 1.5))
         if not implex:
             _set_reactions(it_, state, lam)
+        if undamaged is not None and not implex:
+            if step >= DIVE_FRACTION * d_max:
+                dive_cuts = 0
+            elif cut > 0:
+                dive_cuts += 1
+            if dive_cuts >= DIVE_CUTS:
+                # the implicit update crawls (DIVE_CUTS): back to the last
+                # undamaged state, its frames kept and the later ones
+                # dropped, and on by IMPL-EX from there at the increment
+                # asked for
+                saved0, lam, pos, n_it, n_frames, work0, peak = undamaged
+                what = (f"{name} = {goal:.4g}" if controlled else f"λ = {goal:.4g}")
+                _restore(state, saved0)
+                _set_reactions(it_, state, lam)
+                del iterations[n_it:]
+                recorder.rewind(n_frames, work0)
+                frames[0] = n_frames
+                it_.hold, it_.low_rank = None, None
+                implex, implicit_next = True, False
+                d = d_max
+                dmg_last, step_last = state.spring_dmg.copy(), d
+                undamaged = None
+                notes.append(
+                    f"increment {len(iterations) + 1} ({what}): the implicit damage update "
+                    f"had to halve {DIVE_CUTS} increments that were already below "
+                    f"{DIVE_FRACTION:g} of the increment asked for: back to the last state "
+                    f"without damage ({'λ' if not controlled else name} = {pos:.4g}, frame "
+                    f"{n_frames - 1}, the frames after it replaced) and on by IMPL-EX "
+                    "(solver.damage_update: implex; its error is of the order of its "
+                    "increment, docs/case_file.md); give damage_update: implicit to keep "
+                    "the implicit update")
+                continue
         frame(lam, ratio)
         load = abs(_load(it_, state, lam))
         peak = max(peak, load)
+        if undamaged is not None and not implex and not np.any(state.spring_dmg):
+            undamaged = (_save(state), lam, pos, len(iterations), frames[0],
+                         recorder._path_work, peak)
         if progress:
             if control is None:
                 frac = min(abs(lam), 1.0)        # (λ also under the crack-opening control)

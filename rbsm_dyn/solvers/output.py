@@ -567,6 +567,13 @@ class Recorder:
         return 0.5 * float(np.sum(m.body_mass[:, None] * vel * vel)) + \
             0.5 * float(np.sum(lb * lb / m.body_inertia))
 
+    def rewind(self, frames, path_work):
+        """Keep the first ``frames`` frames and go on from there, the path
+        work's running sum (statics.path_work) put back to ``path_work``
+        (what it was after the last frame kept)."""
+        self.writer.truncate(frames)
+        self._path_work = path_work
+
     def fail(self, message):
         self.writer.mark_failed(message)
 
