@@ -382,6 +382,7 @@ def _run(case, model, recorder, *, max_steps=None, progress=None):
                 # asked for
                 saved0, lam, pos, n_it, n_frames, work0, peak = undamaged
                 what = (f"{name} = {goal:.4g}" if controlled else f"λ = {goal:.4g}")
+                crawling = len(iterations)
                 _restore(state, saved0)
                 _set_reactions(it_, state, lam)
                 del iterations[n_it:]
@@ -393,7 +394,7 @@ def _run(case, model, recorder, *, max_steps=None, progress=None):
                 dmg_last, step_last = state.spring_dmg.copy(), d
                 undamaged = None
                 notes.append(
-                    f"increment {len(iterations) + 1} ({what}): the implicit damage update "
+                    f"increment {crawling} ({what}): the implicit damage update "
                     f"had to halve {DIVE_CUTS} increments that were already below "
                     f"{DIVE_FRACTION:g} of the increment asked for: back to the last state "
                     f"without damage ({'λ' if not controlled else name} = {pos:.4g}, frame "
