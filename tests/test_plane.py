@@ -393,3 +393,59 @@ def test_plane_history_says_its_dimension(run_case):
         """)
     assert h.dimension == 2 and h.plane == "stress"
     assert np.abs(np.asarray(h.position)[..., 2]).max() < 1e-15
+
+
+VISCOUS = """
+name: viscous-plate
+plane: {kind: stress, thickness: 0.02}
+domain: {box: [[0, 0], [0.4, 0.05]]}
+mesh: {kind: voronoi, size: 0.01, seed: 3}
+materials:
+  polymer: {density: 1200, young: 3.0e9, poisson: 0.35,
+            viscoelastic: {kind: standard, relaxed: 1.0e9, tau: 2.0e-4}}
+groups: {tip: {box: [[0.39, -1], [1, 1]]}}
+boundary: [{face: xmin, fix: all}]
+loads: [{group: tip, force: [0, -200.0], history: [[0, 0], [1e-4, 1], [1, 1]]}]
+solver: {mode: dynamic, end_time: 1e-3, damping: {beta: 2.0e-6}}
+"""
+
+
+def test_plane_viscous_pass_is_the_slab_pass(monkeypatch):
+    """The plane viscous pass (physics/plane_viscous.py: the 3D pass's law
+    per component on plane kinematics) against the 3D viscous pass on the
+    same plane model (Voronoi cells, so the faces face every way), over
+    3 000 steps of a cantilever of a standard linear solid with Rayleigh's
+    β swinging under a ramped tip load: positions to 1e-9 of the largest
+    displacement, the viscous forces' work to 1e-9 (the same arithmetic
+    but for the order of a few sums)."""
+    import rbsm_dyn.solvers.explicit as ex
+    case = load_case_text(VISCOUS)
+    model = build_model(case)
+    assert model.viscous
+    dt = 0.8 * model.stable_dt()
+    a = _run(case, model, dt, 3000)
+    monkeypatch.setattr(ex, "plane_ready", lambda *args: False)
+    b = _run(case, model, dt, 3000)
+    assert a.plane is not None and b.plane is None
+    scale = np.abs(b.body_pos - model.body_pos0).max()
+    assert scale > 1e-5
+    assert np.abs(a.body_pos - b.body_pos).max() <= 1e-9 * scale
+    # (the work of f_v, with the branches' stored share: of either sign)
+    assert abs(b.spring_wv.sum()) > 0.0
+    assert a.spring_wv.sum() == pytest.approx(b.spring_wv.sum(), rel=1e-9)
+    assert np.abs(a.spring_q - b.spring_q).max() <= 1e-9 * np.abs(b.spring_q).max()
+
+
+def test_plane_viscous_threads_give_the_same_numbers(thread_states):
+    """The plane viscous pass in the schedule of partition.py: 1 and 2
+    threads end in the same state bit for bit (the cantilever above at
+    cells small enough for the threaded variants)."""
+    from rbsm_dyn.physics.springs import SERIAL_SPRINGS
+    from rbsm_dyn.solvers.checkpoint import ARRAYS
+    text = VISCOUS.replace("size: 0.01", "size: 0.004").replace("end_time: 1e-3",
+                                                                   "end_time: 1e-4")
+    assert build_model(load_case_text(text)).n_springs >= SERIAL_SPRINGS
+    a, b = thread_states(text)
+    assert np.abs(a["spring_q"]).max() > 0.0
+    for name in ARRAYS:
+        assert np.array_equal(a[name], b[name]), name

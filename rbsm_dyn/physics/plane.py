@@ -29,6 +29,7 @@ from .laws import BROKEN, P_MODEL
 from .laws.plastic import CONTINUUM
 from .jit import NOALIAS
 from .plane_contact import plane_contact_step
+from .plane_viscous import plane_viscous_pass
 from .integrate import FIXED, FREE, VELOCITY, amplitude, ground_weight, move_ground
 from .springs import part_range
 from ..partition import PARTS
@@ -537,7 +538,8 @@ def plane_body_pass(t, stepping, pbodies, ploads, ps, parallel):
 
 
 @nb.njit(**JIT)
-def run_plane(n_steps, step0, stepping, pbodies, psprings, ploads, ps, hist, contact, parallel):
+def run_plane(n_steps, step0, stepping, pbodies, psprings, ploads, ps, hist, contact, visc,
+              parallel):
     """Advance a plane model n_steps explicit steps in compiled code:
 
         springs   forces at x_n of every spring point: elastic (hist None,
@@ -545,6 +547,8 @@ def run_plane(n_steps, step0, stepping, pbodies, psprings, ploads, ps, hist, con
                   hist (plane_inelastic_pass)
         contact   contact between any cells (contact: PlaneContact, or
                   None; physics/plane_contact.py)
+        viscous   the viscous springs (visc: ViscousSprings, or None;
+                  physics/plane_viscous.py)
         bodies    kick v, ω with the forces at t_n, drift x, turn θ
 
     Returns the step count after them."""
@@ -556,5 +560,7 @@ def run_plane(n_steps, step0, stepping, pbodies, psprings, ploads, ps, hist, con
             plane_inelastic_pass(psprings, ps, hist, False, stepping.dt, parallel)
         if contact is not None:
             plane_contact_step(contact, pbodies, ps, stepping.dt)
+        if visc is not None:
+            plane_viscous_pass(psprings, ps, visc, False, parallel)
         plane_body_pass(t, stepping, pbodies, ploads, ps, parallel)
     return step0 + n_steps

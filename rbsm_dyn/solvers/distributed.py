@@ -40,8 +40,9 @@ plane_contact.py) the same way: each rank its rows of the plane state
 (solvers/plane.py plane_state, which rank 0 keeps on the State and lifts
 to the slab's arrays after each chunk), the ghosts' positions and
 (cos θ, sin θ) traded after each step (with contact their velocities and
-spins too); a plane model with the Poisson correction or viscous springs
-steps on its slab's 3D passes, distributed as any 3D model.
+spins too), viscous springs included (physics/plane_viscous.py); a plane
+model with the Poisson correction steps on its slab's 3D passes,
+distributed as any 3D model.
 
 Not distributed yet (refused with P > 1, naming the reason): the static,
 linear and modal solvers.  Rank 0 builds and holds the whole model (the
@@ -395,7 +396,7 @@ class LocalRun:
             if self.plane:
                 from ..physics.plane import run_plane
                 run_plane(1, step0 + k, stepping, self.bodies, self.springs, self.loads,
-                          self.bs, self.hist, self.contact, par)
+                          self.bs, self.hist, self.contact, visc, par)
             else:
                 run_dynamic(1, step0 + k, stepping, self.bodies, self.springs, self.loads,
                             self.bs, self.hist, self.aux, self.contact, visc, par)

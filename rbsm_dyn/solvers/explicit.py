@@ -168,7 +168,8 @@ def advance(model, state, n_steps, damping_alpha=0.0, damping_local=0.0, options
             n_steps, state.step, Stepping(float(state.dt), float(damping_alpha),
                                           float(damping_local), float(state.t0)),
             pb, psp, pl, plane_state(m, state), history(state, opt),
-            plane_contact_arrays(m, state.contact) if opt.contact else None, parallel_arg(opt))
+            plane_contact_arrays(m, state.contact) if opt.contact else None,
+            viscous_springs(m, state, opt), parallel_arg(opt))
         lift(m, state)
         return
     contact = contact_arrays(m, state.contact) if opt.contact else None

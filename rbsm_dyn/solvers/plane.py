@@ -13,10 +13,11 @@ projection of both:
     lift(model, s)         the State's slab arrays from the PlaneState
 
 Which scenes step on the plane passes (plane_ready): elastic and
-inelastic springs (yield, rupture, cuts, interfaces) and contact between
+inelastic springs (yield, rupture, cuts, interfaces), contact between
 cells (physics/plane_contact.py; its broad phase runs between chunks on
-the slab's arrays, as in 3D); a plane scene with the Poisson correction
-or viscous springs steps on the 3D passes of its slab (the same answer,
+the slab's arrays, as in 3D) and viscous springs (dashpots, Rayleigh's
+β, Maxwell branches: physics/plane_viscous.py); a plane scene with the
+Poisson correction steps on the 3D passes of its slab (the same answer,
 the 3D price).
 """
 import numpy as np
@@ -28,7 +29,7 @@ from ..physics.rotation import quat_matrix_np, quat_mul_np
 
 def plane_ready(model, options):
     """True when the plane passes cover the model's physics."""
-    return bool(model.plane) and not (options.poisson or options.viscous)
+    return bool(model.plane) and not options.poisson
 
 
 def _z_column(rot):
