@@ -104,8 +104,11 @@ output: {interval: 4.0e-7}
 """
 #: a plane model (the plane passes): tests/test_plane_contact.py's Voronoi
 #: disc thrown at a rough ground, shattering (rupture), its cells striking
-#: the ground and each other (plane contact pass), 2 threads a rank
-PLANE = DISC.replace("END", "2.0e-4")
+#: the ground and each other (plane contact pass), Rayleigh's β on its
+#: springs (plane viscous pass), 2 threads a rank
+PLANE = DISC.replace("END", "2.0e-4").replace(
+    "end_time: 2.0e-4}", "end_time: 2.0e-4, damping: {beta: 1.0e-7}}")
+assert "beta" in PLANE
 INLINE = {"continuum": CONTINUUM, "poisson": POISSON, "plane": PLANE}
 
 
