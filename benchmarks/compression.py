@@ -3,6 +3,8 @@
 
     python benchmarks/compression.py table [--cells 0.007 0.005] [--ratios 2 3 4]
     python benchmarks/compression.py checks
+    python benchmarks/compression.py poisson --poisson 0.0 0.3 [--ratios 2 3 4 6] [--seeds 1]
+    python benchmarks/compression.py prism --poisson 0.0 0.3 [--seeds 1 2]
 
 `table`: the peak stress over f_t of the calibration prism (50 mm, h = 2b,
 frictionless platens, the C40 preset) at each shear-to-tensile ratio r
@@ -10,6 +12,12 @@ given as `shear_strength` (the rows of VORONOI_COMPRESSION).  `checks`:
 the 40 mm prism and cube (frictionless and μ = 0.2) with the calibrated
 f_c, and the triaxial prisms at lateral pressures of 0.1 and 0.3 f_c
 against Richart, Brandtzaeg & Brown (1928): f_cc = f_c + 4.1 σ_3.
+`poisson`: f_c/f_t of the per-ν prism (40 mm, 6 cells across, h = 2b,
+frictionless platens, 0.5 /s, the C40 preset at ν with `shear_strength` =
+r f_t given) per r and seed: over ν = 0.2's, the rows of
+COMPRESSION_ALPHA_FACTOR (and COMPRESSION_AUX_FACTOR).  `prism`: the same
+prism with the calibrated f_c = 40 MPa (no shear strength given) at ν:
+its peak against the f_c asked.
 Each run: one thread, a few seconds to four minutes."""
 import argparse
 import os
@@ -81,11 +89,47 @@ def checks():
               f"({s / ref - 1:+.0%}) | {w:.0f} |", flush=True)
 
 
+def per_poisson(poissons, ratios, seeds, b=0.04, across=6):
+    print("| ν | seed | r | f_c/f_t | wall [s] |\n|---|---|---|---|---|")
+    for nu in poissons:
+        ft = load_case_text(compression_specimen(cell=b / across, width=b,
+                                                 extra=f", poisson: {nu!r}")) \
+            .materials["concrete"].rupture.tensile_strength
+        for seed in seeds:
+            for r in ratios:
+                text = compression_specimen(
+                    cell=b / across, width=b, seed=seed, rate=0.5,
+                    extra=f", poisson: {nu!r}, rupture: {{shear_strength: {r * ft!r}}}")
+                s, wall = peak(text, b * b)
+                print(f"| {nu:g} | {seed} | {r:g} | {s / ft:.2f} | {wall:.0f} |", flush=True)
+
+
+def prism_at_fc(poissons, seeds, b=0.04, across=6):
+    print("| ν | seed | f_c asked [MPa] | reached [MPa] | error | wall [s] |\n"
+          "|---|---|---|---|---|---|")
+    for nu in poissons:
+        for seed in seeds:
+            text = compression_specimen(cell=b / across, width=b, seed=seed, rate=0.5, fc=FC,
+                                        extra=f", poisson: {nu!r}")
+            s, wall = peak(text, b * b)
+            print(f"| {nu:g} | {seed} | {FC / 1e6:g} | {s / 1e6:.2f} | {s / FC - 1:+.1%} "
+                  f"| {wall:.0f} |", flush=True)
+
+
 if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("what", choices=["table", "checks"])
+    ap.add_argument("what", choices=["table", "checks", "poisson", "prism"])
     ap.add_argument("--cells", type=float, nargs="+", default=[0.007, 0.005])
     ap.add_argument("--ratios", type=float, nargs="+", default=[2.0, 2.5, 3.0, 3.3, 4.0, 5.0,
                                                                6.0])
+    ap.add_argument("--poisson", type=float, nargs="+", default=[0.0, 0.3])
+    ap.add_argument("--seeds", type=int, nargs="+", default=None)
     a = ap.parse_args()
-    table(a.cells, a.ratios) if a.what == "table" else checks()
+    if a.what == "table":
+        table(a.cells, a.ratios)
+    elif a.what == "checks":
+        checks()
+    elif a.what == "poisson":
+        per_poisson(a.poisson, a.ratios, a.seeds or [1])
+    else:
+        prism_at_fc(a.poisson, a.seeds or [1, 2])

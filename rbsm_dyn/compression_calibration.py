@@ -20,15 +20,19 @@ the measured ratio f_c/f_t of the lattice:
     "Compression").
 
 The strength grows with r up to about 16.6 f_t (r = 6; on the table's
-springs; per ν: compression_column): beyond it the
+springs; per ν: compression_column): beyond it the ν = 0.2
 specimen splits in tension whatever its shear strength (the compressive
-cap, which bounds the faces' compression, does not raise it).  An f_c
-outside the table's range takes the nearest end and a note says so.
+cap, which bounds the faces' compression, does not raise it); at ν ≤ 0.1
+and with the Poisson correction (ν > 0.25) the strength still grows at
+r = 6, where the calibration ends.  An f_c outside the calibrated range
+takes the nearest end and a note says so.
 Blocks (and plane meshes) have no such calibration: a block lattice loaded
 along its axes has no inclined faces and never fails in uniaxial
 compression; there r stays 2 and a note says so.
 """
 import numpy as np
+
+from .fracture_calibration import ALPHA_NU0
 
 # r = f_s/f_t, f_c/f_t: the mean of 7 and 10 cells across b (50 mm prisms
 # of 7 and 5 mm cells, seed 1; 10 cells across is 3-7 % stronger than 7,
@@ -59,44 +63,70 @@ TABLE_BRITTLENESS = 90.0     # β = l_ch/Δ of the table's specimens (76-107)
 # scaling by F_T above misses how the shear springs share the compression
 # (it gives a constant 0.89 at ν = 0.1, 1.10 at ν = 0.25): f_c/f_t measured
 # on one prism (40 mm, 6 cells across, seed 1, the C40 preset with
-# shear_strength = r f_t given) at ν = 0.1 and 0.25 over that at ν = 0.2,
-# per r (2026-11-28; docs/calibration.md, "Compression"), multiplies ν =
-# 0.2's column: linear in r, then in α; held beyond ν = 0.1 and 0.25 (ν <
-# 0.1 is not measured).  Not with the Poisson correction (ν > 0.25), which
-# keeps the F_T scaling.
+# shear_strength = r f_t given, 0.5 /s) at ν = 0.1 and 0.25 over that at
+# ν = 0.2, per r (2026-11-28; docs/calibration.md, "Compression"), and at
+# ν = 0 the same way (2026-11-29; benchmarks/compression.py poisson),
+# multiplies ν = 0.2's column: linear in r, then in α; held beyond α of
+# ν = 0 and ν = 0.25 (the α table's ends within 0 ≤ ν ≤ 0.25).
 TABLE_ALPHA = 0.2662
 COMPRESSION_ALPHA_FACTOR = {
     # α: [[r, f_c(ν)/f_c(ν = 0.2)], ...]
+    # ν = 0: 5.85, 10.18, 15.25, 26.83 f_t at r = 2, 3, 4, 6 (ν = 0.2: 8.39,
+    # 12.20, 15.09, 17.72); seed 2: see docs/calibration.md
+    ALPHA_NU0: np.array([[2.0, 0.697], [3.0, 0.834], [4.0, 1.011], [6.0, 1.514]]),  # ν = 0
     0.5815: np.array([[2.0, 0.837], [3.0, 0.943], [4.0, 1.108], [6.0, 1.372]]),  # ν = 0.1
     TABLE_ALPHA: np.array([[2.0, 1.0], [6.0, 1.0]]),                              # ν = 0.2
     0.1496: np.array([[2.0, 1.047], [3.0, 0.959], [4.0, 0.886], [6.0, 0.828]]),  # ν = 0.25
 }
+# With the Poisson correction (ν > 0.25, or stiffness: homogeneous: α = 1 and
+# the auxiliary cell stress; calibration.py) the lattice is another one, so
+# its factor is keyed by ν, as VORONOI_TENSION_AUX is: the same prism (40 mm,
+# 6 cells across, seed 1, the C40 preset at ν with shear_strength = r f_t
+# given, 0.5 /s; 2026-11-29; benchmarks/compression.py poisson), f_c/f_t
+# at r = 2, 3, 4, 6: ν = 0.3: 4.34, 6.54, 9.11, 15.10; ν = 0.4: 4.06, 5.45,
+# 7.45, 11.45; over ν = 0.2's column as above.  Linear in r, then in ν; held
+# beyond 0.3 and 0.4 (the F_T scaling alone, used before, gave 0.638 at
+# ν = 0.3 and 0.551 at 0.4 at every r; docs/calibration.md, "Compression").
+COMPRESSION_AUX_FACTOR = {
+    # ν: [[r, f_c(ν)/f_c(ν = 0.2)], ...]
+    0.3: np.array([[2.0, 0.517], [3.0, 0.536], [4.0, 0.604], [6.0, 0.852]]),
+    0.4: np.array([[2.0, 0.484], [3.0, 0.447], [4.0, 0.494], [6.0, 0.646]]),
+}
 
 
-def compression_column(tension_ratio=TABLE_TENSION_RATIO, alpha=None):
+def _factor(key, tables):
+    """The factor of {key: rows} at each of the table's r: linear in r within
+    each row set, then linear in the key; held beyond the ends."""
+    keys = np.array(sorted(tables))
+    return np.array([np.interp(key, keys, [np.interp(r, *tables[k].T) for k in keys])
+                     for r in VORONOI_COMPRESSION[:, 0]])
+
+
+def compression_column(tension_ratio=TABLE_TENSION_RATIO, alpha=None, aux_poisson=None):
     """f_c/f_t of VORONOI_COMPRESSION's rows for a material whose F_T at
     the table's brittleness is `tension_ratio` and whose springs have α =
-    k_s/k_n (None: the F_T scaling alone, as with the Poisson correction)."""
-    r_tab = VORONOI_COMPRESSION[:, 0]
-    if alpha is None:
+    k_s/k_n (COMPRESSION_ALPHA_FACTOR), or which has the Poisson correction
+    at ν = `aux_poisson` (COMPRESSION_AUX_FACTOR); neither: the F_T scaling
+    alone."""
+    if alpha is None and aux_poisson is None:
         return VORONOI_COMPRESSION[:, 1] * (TABLE_TENSION_RATIO / tension_ratio)
     from .fracture_calibration import voronoi_tension_ratio
     base = VORONOI_COMPRESSION[:, 1] * (TABLE_TENSION_RATIO
                                         / voronoi_tension_ratio(TABLE_BRITTLENESS, TABLE_ALPHA))
-    keys = np.array(sorted(COMPRESSION_ALPHA_FACTOR))
-    factor = np.array([[np.interp(r, *COMPRESSION_ALPHA_FACTOR[k].T) for k in keys]
-                       for r in r_tab])
-    return base * np.array([np.interp(alpha, keys, f) for f in factor])
+    if aux_poisson is not None:
+        return base * _factor(aux_poisson, COMPRESSION_AUX_FACTOR)
+    return base * _factor(alpha, COMPRESSION_ALPHA_FACTOR)
 
 
 def shear_ratio(mesh_kind, compressive_strength, tensile_strength,
-                tension_ratio=TABLE_TENSION_RATIO, alpha=None):
+                tension_ratio=TABLE_TENSION_RATIO, alpha=None, aux_poisson=None):
     """(r = f_s/f_t, note or None) for a material of compressive strength
     f_c and tensile strength f_t [Pa] on a mesh kind: interpolated in the
     measured table (VORONOI_COMPRESSION), its ends beyond it (with a note);
     DEFAULT_RATIO with a note on other mesh kinds.  `tension_ratio`: the
     material's F_T at the table's brittleness (its springs' f_t = f_t/F_T);
-    `alpha` its springs' k_s/k_n (compression_column)."""
+    `alpha` its springs' k_s/k_n, `aux_poisson` its ν with the Poisson
+    correction (compression_column)."""
     ratio = compressive_strength / tensile_strength
     if mesh_kind != "voronoi":
         return DEFAULT_RATIO, (
@@ -104,13 +134,13 @@ def shear_ratio(mesh_kind, compressive_strength, tensile_strength,
             f"Voronoi cells are calibrated: docs/calibration.md, \"Compression\"); the shear "
             f"strength stays {DEFAULT_RATIO:g} f_t")
     r_tab = VORONOI_COMPRESSION[:, 0]
-    c_tab = compression_column(tension_ratio, alpha)
+    c_tab = compression_column(tension_ratio, alpha, aux_poisson)
     r = float(np.interp(ratio, c_tab, r_tab))
     note = None
     if ratio > c_tab[-1]:
-        note = (f"compressive_strength = {ratio:.3g} f_t is above what the Voronoi lattice "
-                f"reaches ({c_tab[-1]:.3g} f_t, at f_s = {r_tab[-1]:g} f_t: it then splits in "
-                f"tension); a specimen fails near {c_tab[-1]:.3g} f_t = "
+        note = (f"compressive_strength = {ratio:.3g} f_t is above what the calibrated Voronoi "
+                f"lattice reaches at this ν ({c_tab[-1]:.3g} f_t, at f_s = {r_tab[-1]:g} f_t, "
+                f"the calibration's end); a specimen fails near {c_tab[-1]:.3g} f_t = "
                 f"{c_tab[-1] * tensile_strength / 1e6:.4g} MPa")
     elif ratio < c_tab[0]:
         note = (f"compressive_strength = {ratio:.3g} f_t is below the calibrated range "

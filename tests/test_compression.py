@@ -110,6 +110,48 @@ def test_uniaxial_compression_at_other_poisson_ratios(run_case, poisson):
     assert np.abs(balance).max() <= 1e-2 * ob["external_work"].max()
 
 
+@pytest.mark.parametrize("poisson", [0.0, 0.3])
+def test_uniaxial_compression_at_the_ends_of_the_poisson_range(run_case, poisson):
+    """ν = 0 (the calibrated springs' stiffest shear, α = 1.01) and ν = 0.3
+    (rock; the Poisson correction's lattice: α = 1 plus the auxiliary cell
+    stress) have their own measured factors (COMPRESSION_ALPHA_FACTOR at
+    ν = 0's α, COMPRESSION_AUX_FACTOR at ν = 0.3, measured on seed 1):
+    the prism of another mesh (seed 2, 6 cells across, 2 /s, as the test
+    above) fails at f_c within the issue's 10 %, the tolerance of the test
+    above (before these factors: −14 % at ν = 0 and +14 %/+5 % at ν = 0.3
+    on seeds 1/2 at 0.5 /s; one prism's scatter between seeds at ν = 0.3
+    is up to 8 %, docs/calibration.md "Compression"); energy balance
+    within 1 %."""
+    h = run_case(compression_specimen(cell=WIDTH / 6, width=WIDTH, fc=FC, rate=2.0,
+                                      frames=150, seed=2,
+                                      extra=f", poisson: {poisson!r}"))
+    ob = h.observables
+    stress = -np.asarray(ob["F"]) / WIDTH ** 2
+    assert stress.max() == pytest.approx(FC, rel=0.10)
+    balance = (ob["kinetic"] + ob["strain"] + ob["plastic"] + ob["fracture"] + ob["damping"]
+               - ob["external_work"])
+    assert np.abs(balance).max() <= 1e-2 * ob["external_work"].max()
+
+
+def test_check_says_when_fc_is_beyond_the_reach_at_high_poisson(tmp_path, capsys):
+    """At ν = 0.4 (the Poisson correction) the lattice at the calibration's
+    end r = 6 is weaker than the C40 preset's f_c (measured 11.45 f_t against
+    13.2 f_t asked, docs/calibration.md "Compression"): `check` warns that
+    the compressive strength is above the reach and says in MPa, below
+    f_c, what a specimen will reach; ν = 0.3 reaches it, no warning."""
+    for poisson, beyond in ((0.4, True), (0.3, False)):
+        case = tmp_path / "c.yaml"
+        case.write_text(compression_specimen(cell=0.01, width=WIDTH,
+                                             extra=f", poisson: {poisson!r}"), encoding="utf-8")
+        assert main(["check", str(case)]) == 0
+        captured = capsys.readouterr()
+        text = captured.out + captured.err
+        assert ("compressive_strength = " in text and "is above" in text) == beyond
+        if beyond:
+            reach = float(text.split("a specimen fails near ")[1].split(" = ")[1].split()[0])
+            assert reach < FC / 1e6
+
+
 @pytest.mark.parametrize("cell", [WIDTH / 6, WIDTH / 8])
 @pytest.mark.parametrize("share", [0.1, 0.3])
 def test_triaxial_compression_follows_richart(run_case, cell, share):

@@ -50,13 +50,14 @@ def _spring_ratio(mat, mesh_kind):
 
 def _table_tension_ratio(mat, mesh_kind):
     """The material's (F_T at the compression table's brittleness, its
-    springs' α or None with the Poisson correction):
-    compression_calibration.shear_ratio's `tension_ratio` and `alpha`."""
+    springs' α or None with the Poisson correction, its ν with the Poisson
+    correction or None): compression_calibration.shear_ratio's
+    `tension_ratio`, `alpha` and `aux_poisson`."""
     alpha, aux_nu = _spring_ratio(mat, mesh_kind)
     if alpha is None:
-        return TABLE_TENSION_RATIO, None
+        return TABLE_TENSION_RATIO, None, None
     return (voronoi_tension_ratio(TABLE_BRITTLENESS, alpha, aux_nu),
-            alpha if aux_nu is None else None)
+            alpha if aux_nu is None else None, aux_nu)
 
 
 def material_law_row(mat, mesh_kind="voronoi", cell_size=None):
