@@ -580,3 +580,27 @@ def test_free_block_given_a_rigid_spin_turns_as_a_rigid_body(tmp_path):
         d = np.linalg.norm(x[:, None] - x[None], axis=2)
         assert np.abs(d - d0).max() <= strain * size, k
     assert len(t) >= 5
+
+
+def test_a_note_while_running_is_said_at_once_and_restarts_the_eta(capsys):
+    """Progress.note (a Newton run that goes back on its path, solvers/
+    newton.py): the line is on stderr when it happens, not only at the end,
+    and the ETA counts afresh from the next update (the path done before
+    is done again); nothing with --quiet."""
+    clock = Clock()
+    p = cli.Progress(True, style="log", clock=clock)
+    p.start(100, 1e-6)
+    clock.t = 10.0
+    p.update(10, 1e-5, 0.0)
+    clock.t = 11.0
+    p.update(20, 2e-5, 0.0)
+    assert p.eta(20) is not None
+    p.note("back to frame 0", restart=True)
+    assert capsys.readouterr().err.strip() == "rbsm_dyn: back to frame 0"
+    assert p.eta(20) is None
+    clock.t = 12.0
+    p.update(5, 5e-6, 0.0)
+    assert p.eta(5) is None                  # one update since: no rate yet
+    q = cli.Progress(False, clock=clock)
+    q.note("said to no one")
+    assert capsys.readouterr().err == ""

@@ -109,6 +109,20 @@ class Progress:
                   f"{_duration(now - self.t_start)} elapsed, ETA {_duration(eta)}",
                   file=sys.stderr, flush=True)
 
+    def note(self, text, restart=False):
+        """A line said while the run goes on (above the bar, or among the
+        log lines; nothing with --quiet).  ``restart``: the run has gone
+        back on its path, so the ETA counts afresh from the next update."""
+        if restart:
+            self.first = None
+        if self.style is None:
+            return
+        line = f"rbsm_dyn: {text}"
+        if self.bar is not None:
+            self.bar.write(line, file=sys.stderr)
+        else:
+            print(line, file=sys.stderr, flush=True)
+
     def close(self):
         self.on_first = None
         if self.bar is not None:

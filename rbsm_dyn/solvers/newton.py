@@ -402,6 +402,10 @@ def _run(case, model, recorder, *, max_steps=None, progress=None):
                     "(solver.damage_update: implex; its error is of the order of its "
                     "increment, docs/case_file.md); give damage_update: implicit to keep "
                     "the implicit update")
+                if progress:
+                    progress.note(f"increment {crawling}: the implicit damage update crawls; "
+                                  f"back to frame {n_frames - 1} and on by IMPL-EX (warning "
+                                  "at the end)", restart=True)
                 continue
         frame(lam, ratio)
         load = abs(_load(it_, state, lam))
