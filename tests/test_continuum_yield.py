@@ -12,6 +12,7 @@ Facts checked, from the criterion's formulas:
 * a pressure never yields (von Mises and Tresca do not depend on it);
 * the energy balance closes with the plastic work booked on the springs.
 """
+import re
 import textwrap
 
 import numpy as np
@@ -124,13 +125,37 @@ def test_pressure_never_yields(run_case):
     assert -sx[-1] == pytest.approx(E * V * 4.0e-4 / (7.0 * L / 8.0), rel=1e-2)
 
 
-def test_newton_refused():
-    """`solver.method: newton` with continuum yield: a CaseError naming
-    solver.method (Newton's tangent does not hold the cells' stress)."""
+def test_newton_pure_shear_at_45_degrees(run_case):
+    """The 4 × 4 blocks of test_blocks_pure_shear_at_45_degrees as a static
+    case (the default method, Newton on displacements and plastic strains,
+    solvers/newton_plastic.py), pulled and pushed to four yield strains:
+    σxx and −σyy at the last of 8 load steps within 1 % of k, their mean
+    within 1 % of k of zero."""
+    u = V * 4.0e-4
     text = biaxial("{kind: blocks, divisions: [4, 4]}").replace(
         "solver: {mode: dynamic, end_time: 4.0e-4, damping: {local: 0.7}}",
-        "solver: {mode: static, method: newton, load_steps: 4}")
-    with pytest.raises(CaseError, match="solver.method"):
+        "solver: {mode: static, load_steps: 8}").replace(
+        f"velocity: [{V}, null]", f"displacement: [{u}, null]").replace(
+        f"velocity: [null, {-V}]", f"displacement: [null, {-u}]")
+    text = re.sub(r"\n *interval: [^\n]*", "", text)
+    h = run_case(text)
+    sx = h.observables["fx"][-1] / (L * T)
+    sy = h.observables["fy"][-1] / (L * T)
+    assert sx / K == pytest.approx(1.0, abs=1e-2)
+    assert -sy / K == pytest.approx(1.0, abs=1e-2)
+    assert abs(sx + sy) < 2e-2 * K
+    assert h.observables["plastic"][-1] > 0.0
+
+
+def test_indirect_control_refused():
+    """`solver.control` with continuum yield: a CaseError naming
+    solver.control (the load factor would be one more unknown beside the
+    cells' plastic strains)."""
+    text = biaxial("{kind: blocks, divisions: [4, 4]}").replace(
+        "solver: {mode: dynamic, end_time: 4.0e-4, damping: {local: 0.7}}",
+        "solver: {mode: static, control: {probe: fx, increment: 1.0e-6, end: 1.0e-5}}")
+    text = re.sub(r"\n *interval: [^\n]*", "", text)
+    with pytest.raises(CaseError, match=r"solver\.control"):
         load_case_text(textwrap.dedent(text))
 
 

@@ -454,10 +454,10 @@ def _check(case: Case) -> None:
     if s.mode == "static" and not s.given("method"):
         s.method = default_static_method(case)
         s._method_default = True
-    if s.mode == "static" and s.method == "newton" and continuum_yield(case):
-        raise err(("solver", "method"), "newton does not follow continuum yield (materials "
-                  f"{', '.join(continuum_yield(case))}: yield.model continuum): leave "
-                  "solver.method out or give relaxation, or run the case in mode dynamic")
+    if s.control is not None and continuum_yield(case):
+        raise err(("solver", "control"), "indirect control does not follow continuum yield "
+                  f"(materials {', '.join(continuum_yield(case))}: yield.model continuum): "
+                  "prescribe the displacement (load_steps) instead")
     if s.given("damage_update") and s.mode == "static" and s.method != "newton":
         raise err(("solver", "damage_update"), "chooses how newton updates the damage of "
                   "softening springs: it needs solver.method: newton")

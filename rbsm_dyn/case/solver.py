@@ -139,7 +139,7 @@ def default_static_method(case, n_bodies=None) -> str:
     s = case.solver
     if s.control is not None or s.time is not None:
         return "newton"
-    if any(s.given(k) for k in RELAXATION_KEYS) or continuum_yield(case):
+    if any(s.given(k) for k in RELAXATION_KEYS):
         return "relaxation"
     if n_bodies is not None and n_bodies > NEWTON_DEFAULT_MAX_BODIES:
         return "relaxation"

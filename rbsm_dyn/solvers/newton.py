@@ -121,6 +121,7 @@ from .newton_control import (_auto_control, _auto_increment, _branch_predictor, 
 from .newton_linear import one_blas_thread
 from .newton_state import _restore, _save, _save_motion
 from .newton_system import Newton
+from .newton_plastic import newton_increment
 from .passes import body_state, model_arrays
 from .statics import apply_increment, record_frame
 
@@ -265,8 +266,13 @@ def _run(case, model, recorder, *, max_steps=None, progress=None):
                 # (_branch_predictor)
                 start, lam_start = _branch_predictor(it_, state, saved, lam_saved, branch,
                                                      pos, goal)
-            ok, lam, its, ratio = _increment_or_retry(it_, state, lam_start, goal, plan,
-                                                      sol.tolerance, controlled, start)
+            if it_.continuum:
+                ok, lam, its, ratio = newton_increment(
+                    _increment_or_retry, it_, state, lam_start, goal, plan, sol.tolerance,
+                    controlled, start)
+            else:
+                ok, lam, its, ratio = _increment_or_retry(it_, state, lam_start, goal, plan,
+                                                          sol.tolerance, controlled, start)
             if ok and branch is not None and (lam - lam_saved) * branch[1] < 0.0:
                 # λ moved against the loading of the increment that started
                 # cracking: the spurious branch (_branch_predictor); halve

@@ -65,6 +65,13 @@ class Newton:
         # from the faces at every access)
         self.laws = (m.spring_k, m.spring_area, m.spring_h, m.spring_law, m.law_params)
         self._laws, self._frozen = self.laws, None
+        # continuum yield (solvers/newton_plastic.py): the plastic strain
+        # (C+1, 6) the present increment has given each cell so far, which
+        # every trial adds to its springs' plastic gaps, and the cells'
+        # stress at the last trial
+        self.continuum = m.cell_k.shape[0] > 0 and bool(np.any(m.cell_k > 0.0))
+        self.deps = np.zeros((m.cell_k.shape[0], 6)) if self.continuum else None
+        self.sigma = None
         self.K_aux = None
         if m.poisson_on:
             from ..physics.poisson import poisson_stiffness
@@ -108,8 +115,15 @@ class Newton:
         if self.implex is not None:
             springs = springs._replace(law_params=self._frozen)
             hist.spring_dmg[:] = self.implex
+        if self.continuum:
+            hist.cell_dep[:] = self.deps
         spring_forces(springs, body_state(state), hist, aux_stress(m, state, opt), True, 0.0,
                       parallel_arg(opt))
+        if self.continuum:
+            self.sigma = hist.cell_sigma.copy()
+            if commit:
+                # (the increment's plastic strain is in the gaps now)
+                hist.cell_dep[:] = 0.0
         sstate, dmg = (None, None) if hist is None else (hist.spring_state, hist.spring_dmg)
         return sstate, dmg
 

@@ -13,9 +13,9 @@ import math
 import numba as nb
 import numpy as np
 
-from ..physics.laws import (BROKEN, P_CAP, P_CAPH, P_CAPK, P_COH, P_CRIT, P_FT, P_GF, P_GS,
+from ..physics.laws import (BROKEN, P_CAP, P_CAPH, P_CAPK, P_COH, P_CRIT, P_MODEL, P_FT, P_GF, P_GS,
                             P_MU, P_RS, P_RUPT, P_SY, P_TANPHI, P_TENSION)
-from ..physics.laws.plastic import MOHR_COULOMB, plastic_return
+from ..physics.laws.plastic import CONTINUUM, MOHR_COULOMB, plastic_return
 from ..physics.laws.rupture import (MIXED, SOFTENING, cap_stress, mixed_mode_damage,
                                     softening_damage)
 from .newton_linear import OPEN_FRACTION
@@ -112,7 +112,7 @@ def _local_tangents(laws, trial, committed, gap, cgap, open_fraction, slip_floor
             sbc, slope = cap_stress(gap[s, 0], kna, P[P_CAP], P[P_CAPH], P[P_CAPK])
             if kna * en < -sbc:
                 out[s, 0, 0] = kn * max(slope, open_fraction)
-        if P[P_CRIT] > 0 and D == 0.0:
+        if P[P_CRIT] > 0 and P[P_MODEL] != CONTINUUM and D == 0.0:
             # yielding: the consistent tangent of the return mapping
             # (Simo & Hughes 1998, §3.3: ∂σ/∂ε of the closest-point
             # projection), by central differences of plastic.py's return
