@@ -119,11 +119,9 @@ NEWTON_DEFAULT_MAX_BODIES = 50_000
 
 def continuum_yield(case) -> list:
     """Names of the materials whose yield is judged on the continuum stress
-    (`yield.model: continuum`, physics/laws/plastic.py): each face's limit
-    depends on its cells' stress, which Newton's tangent does not hold
-    (issue 27: Newton with the lagged cell stress needed hundreds of
-    iterations), so static cases run them by relaxation, where the one-step
-    lag is that of an explicit step."""
+    (`yield.model: continuum`, physics/laws/plastic.py): Newton solves them
+    with the cells' plastic strains as unknowns (solvers/newton_plastic.py),
+    which indirect control (solver.control) does not offer."""
     return [name for name, m in case.materials.items()
             if m.yield_ is not None and m.yield_.model == "continuum"]
 
@@ -132,8 +130,8 @@ def default_static_method(case, n_bodies=None) -> str:
     """solver.method of a static case that does not give one: `newton`
     (Newton iterations with the consistent tangent: elastic, plastic and
     softening statics, large rotations, frictional contact interfaces;
-    issue 30), unless the case gives keys of the relaxation
-    (RELAXATION_KEYS) or has continuum yield (continuum_yield), or more than
+    issue 30; continuum yield too: solvers/newton_plastic.py), unless the
+    case gives keys of the relaxation (RELAXATION_KEYS), or more than
     NEWTON_DEFAULT_MAX_BODIES bodies (``n_bodies``, when known); then
     `relaxation`.  solver.control needs `newton`."""
     s = case.solver
