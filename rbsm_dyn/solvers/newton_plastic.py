@@ -22,13 +22,16 @@ strains): the springs' gaps d = B U (Kawai 1978, eq. 8b), plastic gaps
 o = O e (plastic_offset), forces C (d − o), the cells' stress as linear
 maps of the forces (CellOperators), and Φ's derivative at the plastic
 cells (a semismooth Newton method: Hintermüller, Ito & Kunisch 2002; the
-cells off the yield surface take e = 0 in one step).  One sparse LU per
-iteration (SuperLU, each cell's plastic strain beside its body in METIS's
-nested-dissection order, no pivoting: the displacement block is positive
-definite and the plastic one near the identity).  Quadratic near the
-root; on Prandtl's punch 6-17 iterations an increment (a factorisation
-kept while it serves: REUSE_FALL), 1.1 s, 5.3 s and 159 s at 32 × 16,
-64 × 32 and 128 × 64 blocks on one core.
+cells off the yield surface take e = 0 in one step).  Each cell's
+plastic strain is written in an orthonormal basis of the strains its flow
+takes (_deviator_basis: five deviators, two in a plane-strain cell).  The
+linear solve: SuperLU (each cell's plastic strain beside its body in
+METIS's nested-dissection order, no pivoting: the displacement block is
+positive definite and the plastic one near the identity), or GMRES
+preconditioned by an earlier iteration's factors while the plastic cells
+have changed little since (_krylov).  Quadratic near the root; on
+Prandtl's punch 6-17 iterations an increment, 1.2 s, 4.7 s and 74 s at
+32 × 16, 64 × 32 and 128 × 64 blocks on one core.
 
 Indirect control (solver.control) is refused with continuum yield
 (case/check.py): λ would be one more unknown of the system.
@@ -150,6 +153,11 @@ class CellOperators:
         fr = np.flatnonzero(free)
         self.SCB_f = self.SCB[:, fr].tocsr()
         self.BtCO_f = _BtCO(G_a, G_b, C, CM, a, b, inner, n).tocsr()[fr]
+        # an orthonormal basis of each cell's plastic strains: the deviators
+        # (5), in plane strain those in the plane (2: the flow of a cell
+        # whose out-of-plane stress is the mean of the other two)
+        self.q, self.T = _deviator_basis(m.cell_plane[:n])
+        self.q_ptr = np.concatenate([[0], np.cumsum(self.q)])
         # the bodies in nested-dissection order (newton_linear._dof_order),
         # each body's free DOFs then its plastic strain's six together
         self.perm = _body_order(m)
@@ -157,18 +165,87 @@ class CellOperators:
 
     def order(self, free, p):
         """The fill-reducing order of the unknowns (free DOFs, then the
-        plastic cells' six) of the iteration's matrix."""
+        plastic cells' strains in their bases) of the iteration's matrix."""
         nf = free.size
-        body = np.concatenate([self.body_of_free, np.repeat(p, 6)])
+        body = np.concatenate([self.body_of_free, np.repeat(p, self.q[p])])
         rank = np.empty(self.perm.size, dtype=np.int64)
         rank[self.perm] = np.arange(self.perm.size)
         key = rank[body] * 2 + (np.arange(body.size) >= nf)
         return np.argsort(key, kind="stable")
 
 
+    def columns(self, p):
+        """The columns of T (and the unknowns' offsets) of the cells p."""
+        return np.concatenate([np.arange(self.q_ptr[c], self.q_ptr[c + 1]) for c in p]) \
+            if p.size else np.zeros(0, dtype=np.int64)
+
+
+def _deviator_basis(plane):
+    """(q (C,), T (6C × Σq) sparse): each cell's orthonormal basis of the
+    strains its plastic flow takes (xx yy zz yz xz xy, tensor components):
+    the five deviators; in a plane-strain cell (plane[c] = its held axis)
+    the two in the plane, (e_ii − e_jj)/√2 and e_ij."""
+    C = plane.size
+    r2, r6 = 1.0 / np.sqrt(2.0), 1.0 / np.sqrt(6.0)
+    full = np.zeros((6, 5))
+    full[[0, 1], 0] = r2, -r2
+    full[[0, 1, 2], 1] = r6, r6, -2.0 * r6
+    full[3, 2] = full[4, 3] = full[5, 4] = 1.0
+    shear = {0: 3, 1: 4, 2: 5}          # the in-plane shear of each held axis
+    q = np.where(plane >= 0, 2, 5)
+    ptr = np.concatenate([[0], np.cumsum(q)])
+    rows, cols, vals = [], [], []
+    for c in range(C):
+        ax = int(plane[c])
+        if ax >= 0:
+            i, j = (ax + 1) % 3, (ax + 2) % 3
+            rows += [6 * c + i, 6 * c + j, 6 * c + shear[ax]]
+            cols += [ptr[c], ptr[c], ptr[c] + 1]
+            vals += [r2, -r2, 1.0]
+        else:
+            nz = np.nonzero(full)
+            rows += list(6 * c + nz[0])
+            cols += list(ptr[c] + nz[1])
+            vals += list(full[nz])
+    return q, sp.csr_matrix((vals, (rows, cols)), shape=(6 * C, int(ptr[-1])))
+
+
 #: SuperLU's threshold for the diagonal pivot: none, the order kept (0.1:
 #: the 64 × 32 punch 77 s against 14 s)
 PIVOT = 0.0
+
+
+def _krylov(J, b, lu, p, nf, ops):
+    """J x = b by GMRES preconditioned with the factors lu = (factors, p_old)
+    of an earlier iteration's matrix (its plastic cells p_old: a cell
+    plastic now and not then is preconditioned by the identity, one
+    plastic then and not now is left out); None when it does not converge
+    in KRYLOV_MAX iterations (then the caller factorises J)."""
+    F, p_old = lu
+    both = np.intersect1d(p, p_old)
+
+    def rows(cells):
+        # the unknowns of `both` among those of `cells` (each cell's q)
+        off = np.concatenate([[0], np.cumsum(ops.q[cells])])
+        at = np.searchsorted(cells, both)
+        return nf + np.concatenate([np.arange(off[i], off[i + 1]) for i in at]) \
+            if both.size else np.zeros(0, dtype=np.int64)
+    new_rows, old_rows = rows(p), rows(p_old)
+    n_old = nf + int(ops.q[p_old].sum())
+
+    def apply(v):
+        w = np.zeros(n_old)
+        w[:nf] = v[:nf]
+        w[old_rows] = v[new_rows]
+        y = F.solve(w)
+        z = v.copy()
+        z[:nf] = y[:nf]
+        z[new_rows] = y[old_rows]
+        return z
+    M = sla.LinearOperator(J.shape, matvec=apply)
+    x, info = sla.gmres(J, b, M=M, rtol=KRYLOV_RTOL, atol=0.0, restart=KRYLOV_MAX,
+                        maxiter=1)
+    return x if info == 0 and np.all(np.isfinite(x)) else None
 
 
 class _Factors:
@@ -305,19 +382,23 @@ def newton_increment(solve, nt, state, lam, goal, plan, tol, controlled, saved, 
         if Kff is None:
             Kff = nt.stiffness(state, tri).tocsr()[free][:, free]
         BtCO = ops.BtCO_f
-        A_ue = -BtCO[:, pr]
+        pc = ops.columns(p)
+        Tp = ops.T[pr][:, pc]
+        A_ue = -(BtCO[:, pr] @ Tp)
         SCOp = ops.SCO[pr]
-        A_eu = -(Dp @ ops.SCB_f[pr])
-        A_ee = sp.identity(6 * p.size) - Dp @ (sp.diags(np.repeat(h2[p], 6)) - SCOp[:, pr])
+        A_eu = -(Tp.T @ (Dp @ ops.SCB_f[pr]))
+        A_ee = Tp.T @ ((sp.identity(6 * p.size) - Dp @ (sp.diags(np.repeat(h2[p], 6))
+                                                         - SCOp[:, pr])) @ Tp)
         rhs_u = r[free] + BtCO[:, nr] @ de_np
-        rhs_e = -Re[p].ravel() - Dp @ (SCOp[:, nr] @ de_np)
+        rhs_e = Tp.T @ (-Re[p].ravel() - Dp @ (SCOp[:, nr] @ de_np))
         b = np.concatenate([rhs_u, rhs_e])
-        if lu is None or not np.array_equal(p, lu[1]) or merit > REUSE_FALL * lu[2]:
-            J = sp.bmat([[Kff, A_ue], [A_eu, A_ee]], format="csr") if p.size else Kff
-            lu = (_Factors(J, ops.order(free, p)), p, merit)
-        else:
-            lu = lu[:2] + (merit,)
-        x = lu[0].solve(b)
+        J = sp.bmat([[Kff, A_ue], [A_eu, A_ee]], format="csr") if p.size else Kff
+        x = None
+        if lu is not None and np.setxor1d(p, lu[1]).size <= KRYLOV_CHANGE:
+            x = _krylov(J, b, lu, p, free.size, ops)
+        if x is None:
+            lu = (_Factors(J, ops.order(free, p)), p)
+            x = lu[0].solve(b)
         if not np.all(np.isfinite(x)):
             nt.ref_max = ref_max
             return False, lam1, its, ratio
@@ -325,7 +406,7 @@ def newton_increment(solve, nt, state, lam, goal, plan, tol, controlled, saved, 
         dU[free] = x[:free.size]
         de = np.zeros((n, 6))
         de[npm] = de_np.reshape(-1, 6)
-        de[p] = x[free.size:].reshape(-1, 6)
+        de[p] = (Tp @ x[free.size:]).reshape(-1, 6)
         back = (_save_motion(state), nt.deps.copy(), merit, False, dU, de)
         apply_increment(m, state, dU.reshape(n, 6))
         nt.deps[:n] += de
@@ -333,10 +414,15 @@ def newton_increment(solve, nt, state, lam, goal, plan, tol, controlled, saved, 
     return False, lam1, its, ratio
 
 
-#: the factors of an iteration's matrix serve the next while the plastic
-#: cells are the same and the merit has fallen below this share of its
-#: value then (modified Newton: the 64 × 32 punch 13.4 s -> 9.8 s)
-REUSE_FALL = 0.5
+#: the factors of an earlier iteration's matrix precondition GMRES on the
+#: present one (Saad 2003, §9.3: right preconditioning) while it converges
+#: to KRYLOV_RTOL in KRYLOV_MAX iterations; else the matrix is factorised
+#: while at most KRYLOV_CHANGE cells have entered or left the plastic set
+#: since (the 64 × 32 punch: GMRES converged in 12 iterations for 61 of 62
+#: such matrices, 4 of 10 at 3-5 changed, none of 78 beyond)
+KRYLOV_RTOL = 1e-8
+KRYLOV_MAX = 12
+KRYLOV_CHANGE = 2
 #: c of the trial s̃ = s + c 2G e and Φ = max(0, 1 − k/√J2) s̃/(c 2G): any
 #: c > 0 has the same roots (there s = k s̃/√J2(s̃)), the iteration not:
 #: c = 1 cycled between active sets at the plastic zone's edge (the 64 × 32
