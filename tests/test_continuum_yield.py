@@ -177,6 +177,28 @@ def test_punch_limit_pressure(run_case):
     assert abs(e["error"][-1]) <= 1e-2 * e["supplied"][-1]
 
 
+def test_punch_limit_pressure_by_newton(run_case):
+    """cases/punch.yaml as a static case (the punch's cells pushed down by
+    a prescribed displacement of 0.4 mm in 20 load steps; the default
+    method, Newton with the cells' plastic strains as unknowns): the
+    pressure within the same 0 … +15 % of (2 + π) k, the energy balance
+    within 1 % of the work."""
+    from pathlib import Path
+    text = (Path(__file__).parent.parent / "cases" / "punch.yaml").read_text()
+    text = text.replace("{group: punch, velocity: [0, -0.1]}",
+                        "{group: punch, displacement: [0, -4.0e-4]}")
+    text = re.sub(r"\nsolver: [^\n]*", "\nsolver: {mode: static, load_steps: 20}", text)
+    text = re.sub(r"\n *interval: [^\n]*", "", text)
+    h = run_case(text)
+    f = -np.asarray(h.observables["force"])
+    d = -np.asarray(h.observables["depth"])
+    assert d[-1] == pytest.approx(4.0e-4, rel=1e-9)
+    p = f[-1] / (0.02 * 0.0025)
+    assert 1.0 <= p / ((2.0 + np.pi) * K) <= 1.15, p / ((2.0 + np.pi) * K)
+    e = h.energy_balance()
+    assert abs(e["error"][-1]) <= 1e-2 * e["supplied"][-1], (e["error"][-1], e["supplied"][-1])
+
+
 def test_notched_plate_limit_load(run_case):
     """cases/notched_plate_2d.yaml (two sharp notches, 0.889 of the width,
     plane strain, 72 × 32 blocks): the load levels off at Hill's deep-notch

@@ -121,7 +121,7 @@ from .newton_control import (_auto_control, _auto_increment, _branch_predictor, 
 from .newton_linear import one_blas_thread
 from .newton_state import _restore, _save, _save_motion
 from .newton_system import Newton
-from .newton_plastic import newton_increment
+from .newton_plastic import book_plastic_work, newton_increment
 from .passes import body_state, model_arrays
 from .statics import apply_increment, record_frame
 
@@ -253,6 +253,7 @@ def _run(case, model, recorder, *, max_steps=None, progress=None):
             sign * (target_end - pos) > 1e-12 * max(abs(target_end), d_max):
         step = min(d, sign * (target_end - pos))
         saved = _save(state)
+        f_start = state.spring_force.copy() if it_.continuum else None
         flown_note = ""
         lam_saved = lam
         for cut in range(MAX_CUTS + 1):
@@ -340,6 +341,8 @@ def _run(case, model, recorder, *, max_steps=None, progress=None):
             recorder.fail(msg)
             raise RunFailed(msg)
         it_.trial(state, commit=True)
+        if it_.continuum:
+            book_plastic_work(it_, state, f_start, saved["spring_dp"])
         if auto and not controlled and np.any(_cracking(m, state)):
             # cracking has started in this increment: it is made again from
             # the last converged state with the opening of the crack it
