@@ -227,6 +227,32 @@ def test_notched_plate_limit_load(run_case):
     assert abs(e["error"][-1]) <= 1e-2 * e["supplied"][-1]
 
 
+def test_notched_plate_by_newton(run_case):
+    """cases/notched_plate_2d.yaml as a static case (the grip lifted by
+    30 µm, 0.6 % of the half-ligament, where the explicit run levels off,
+    in 15 load steps; Newton with the cells' plastic strains, the notches'
+    cut faces open): the load within the explicit test's −5 … +15 % of
+    Hill's limit (2 + π) k × ligament × t, the energy balance within 1 %."""
+    import yaml
+    from pathlib import Path
+    text = (Path(__file__).parent.parent / "cases" / "notched_plate_2d.yaml").read_text()
+    case = yaml.safe_load(text)
+    k = float(case["materials"]["metal"]["yield"]["stress"]) / 2.0    # Tresca
+    t = float(case["plane"]["thickness"])
+    (cut_l, cut_r) = case["cuts"]
+    ligament = cut_r["within"][0][0] - cut_l["within"][1][0]
+    text = text.replace("{group: grip, velocity: [null, 0.01]}",
+                        "{group: grip, displacement: [null, 3.0e-5]}")
+    text = re.sub(r"\nsolver: [^\n]*", "\nsolver: {mode: static, load_steps: 15}", text)
+    text = re.sub(r"\n *interval: [^\n]*", "", text)
+    h = run_case(text)
+    load = np.abs(np.asarray(h.observables["load"]))
+    limit = (2.0 + np.pi) * k * ligament * t
+    assert 0.95 <= load[-1] / limit <= 1.15, load[-1] / limit
+    e = h.energy_balance()
+    assert abs(e["error"][-1]) <= 1e-2 * e["supplied"][-1]
+
+
 def _small_punch(end):
     """cases/punch.yaml at 64 × 32 blocks to `end` [s] (the plastic zone
     grows from 0.3 ms on)."""

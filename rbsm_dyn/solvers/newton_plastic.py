@@ -41,6 +41,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
+from ..physics.laws import BROKEN
 from .newton_state import _restore, _save_motion
 from .statics import apply_increment
 
@@ -96,8 +97,9 @@ class CellOperators:
     the plane axis at the mean), deviatoric: SCB = Dev S C B, SCO = Dev S C
     O and BtCO = Bᵀ C O."""
 
-    def __init__(self, m, free):
+    def __init__(self, m, free, intact):
         from ..stiffness import _spring_B, _spring_geometry
+        self.intact = intact.copy()
         n = m.n_bodies
         sb = m.spring_bodies.astype(np.int64)
         a, b = sb[:, 0], sb[:, 1]
@@ -105,6 +107,9 @@ class CellOperators:
         S = len(sb)
         s_idx = np.arange(S)
         r_a, r_b, C = _spring_geometry(m)
+        # a broken spring (a cut, a crack) carries no force that its cells'
+        # flow moves, and takes no plastic gap (inelastic.py: intact only)
+        C = np.where(intact[:, None, None], C, 0.0)
         G_a, G_b = _spring_B(r_a, r_b)
         CB = (_blocks(s_idx, a, C @ G_a, (3 * S, 6 * n))
               + _blocks(s_idx[inner], b[inner], (C @ G_b)[inner], (3 * S, 6 * n)))
@@ -304,8 +309,9 @@ def _BtCO(G_a, G_b, C, CM, a, b, inner, n):
 def newton_increment(solve, nt, state, lam, goal, plan, tol, controlled, saved, log=None):
     """One increment by Newton on displacements and plastic strains
     together (module docstring)."""
-    if getattr(nt, "cell_ops", None) is None:
-        nt.cell_ops = CellOperators(nt.m, nt.free)
+    intact = state.spring_state < BROKEN
+    if getattr(nt, "cell_ops", None) is None or not np.array_equal(intact, nt.cell_ops.intact):
+        nt.cell_ops = CellOperators(nt.m, nt.free, intact)
     ops = nt.cell_ops
     Kff = None
     m = nt.m
