@@ -364,10 +364,9 @@ def _factorize(A, order, symmetric):
     return _Permuted(lu, order)
 
 
-def _dof_order(model, free):
-    """Nested-dissection order of the free DOFs (a body's six together, the
-    bodies ordered by METIS's nested dissection of the graph of bodies
-    joined by springs; George 1973), or None without pymetis."""
+def body_order(model):
+    """The bodies in METIS's nested-dissection order of the graph of bodies
+    joined by springs (George 1973), or None without pymetis or a graph."""
     try:
         import pymetis
     except ImportError:
@@ -383,7 +382,17 @@ def _dof_order(model, free):
     G.sum_duplicates()
     G.data[:] = 1
     perm, _ = pymetis.nested_dissection(pymetis.CSRAdjacency(G.indptr, G.indices))
-    dof = (np.asarray(perm)[:, None] * 6 + np.arange(6)).reshape(-1)
+    return np.asarray(perm, dtype=np.int64)
+
+
+def _dof_order(model, free):
+    """Nested-dissection order of the free DOFs (a body's six together, the
+    bodies in body_order), or None without pymetis."""
+    perm = body_order(model)
+    if perm is None:
+        return None
+    n = model.n_bodies
+    dof = (perm[:, None] * 6 + np.arange(6)).reshape(-1)
     where = np.full(6 * n, -1)
     where[np.flatnonzero(free)] = np.arange(int(free.sum()))
     order = where[dof]

@@ -42,6 +42,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
 from ..physics.laws import BROKEN
+from .newton_linear import body_order
 from .newton_state import _restore, _save_motion
 from .statics import apply_increment
 
@@ -164,9 +165,10 @@ class CellOperators:
         # whose out-of-plane stress is the mean of the other two)
         self.q, self.T = _deviator_basis(m.cell_plane[:n])
         self.q_ptr = np.concatenate([[0], np.cumsum(self.q)])
-        # the bodies in nested-dissection order (newton_linear._dof_order),
-        # each body's free DOFs then its plastic strain's six together
-        self.perm = _body_order(m)
+        # the bodies in nested-dissection order (newton_linear.body_order),
+        # each body's free DOFs then its cell's plastic strains together
+        perm = body_order(m)
+        self.perm = np.arange(n) if perm is None else perm
         self.body_of_free = fr // 6
 
     def order(self, free, p):
@@ -273,26 +275,6 @@ class _Factors:
         x = np.empty_like(b)
         x[self.order] = self.lu.solve(b[self.order])
         return x
-
-
-def _body_order(m):
-    """The bodies in METIS's nested-dissection order (or as they are)."""
-    n = m.n_bodies
-    try:
-        import pymetis
-    except ImportError:
-        return np.arange(n)
-    sb = m.spring_bodies
-    inner = (sb[:, 0] < n) & (sb[:, 1] < n) & (sb[:, 0] != sb[:, 1])
-    if n < 2 or not inner.any():
-        return np.arange(n)
-    G = sp.coo_matrix((np.ones(int(inner.sum()), dtype=np.int8), (sb[inner, 0], sb[inner, 1])),
-                      shape=(n, n)).tocsr()
-    G = (G + G.T).tocsr()
-    G.sum_duplicates()
-    G.data[:] = 1
-    perm, _ = pymetis.nested_dissection(pymetis.CSRAdjacency(G.indptr, G.indices))
-    return np.asarray(perm, dtype=np.int64)
 
 
 def _BtCO(G_a, G_b, C, CM, a, b, inner, n):
