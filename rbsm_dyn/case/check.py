@@ -272,10 +272,6 @@ def _check(case: Case) -> None:
             if y.model == "continuum" and y.criterion not in ("tresca", "von_mises"):
                 raise err(yp + ("model",), f"continuum yield is for tresca and von_mises "
                           f"materials, not {y.criterion} (an interface criterion)")
-            if y.model == "continuum" and "voronoi" in _mesh_kinds(case, name):
-                raise err(yp + ("model",), "continuum yield is for block meshes (mesh.kind "
-                          "blocks): on Voronoi cells it hardens, about +50 % over ten yield "
-                          "strains of pure shear (issue 27; docs/theory.md, Yield)")
         if mat.viscoelastic is not None:
             _check_viscoelastic(case, path, mat)
         r = mat.rupture
@@ -454,6 +450,13 @@ def _check(case: Case) -> None:
     if s.mode == "static" and not s.given("method"):
         s.method = default_static_method(case)
         s._method_default = True
+    voronoi = [name for name in continuum_yield(case) if "voronoi" in _mesh_kinds(case, name)]
+    if s.mode == "static" and voronoi:
+        raise err(("solver", "mode"), "static runs do not follow continuum yield on Voronoi "
+                  f"cells (materials {', '.join(voronoi)}): Newton's plastic set cycles there "
+                  "(docs/theory.md, Yield); run it as a slow dynamic run with damping "
+                  "(mode: dynamic, a displacement history or a velocity, damping: {local: 0.7}: "
+                  "cases/punch.yaml), or on blocks (mesh.kind blocks)")
     if s.control is not None and continuum_yield(case):
         raise err(("solver", "control"), "indirect control does not follow continuum yield "
                   f"(materials {', '.join(continuum_yield(case))}: yield.model continuum): "

@@ -15,8 +15,9 @@ class Yield(_Node):
     with ``stress`` (normal, tresca, von_mises) or ``cohesion``,
     ``friction_angle`` [degrees] and ``tension`` (mohr_coulomb).
     ``model``: ``interface`` (default: the spring's traction alone decides)
-    or ``continuum`` (tresca, von_mises: the traction plus the in-plane
-    stress of the face's two cells, pressure-free)."""
+    or ``continuum`` (tresca, von_mises, blocks and Voronoi cells: each
+    cell's stress returned to J2's cylinder, its plastic strain moving its
+    springs' gaps; pressure-free)."""
     criterion: Literal["normal", "tresca", "von_mises", "mohr_coulomb"]
     stress: Optional[float] = Field(default=None, gt=0)
     cohesion: Optional[float] = Field(default=None, ge=0)
