@@ -160,7 +160,7 @@ def test_voronoi_shear_strength_at_0_and_45_degrees(run_case, dim, mesh, band):
     other"): the shear stress on the plateau (from the 5th yield strain on),
     the mean of the two loaded bands' reactions over their sections (the
     stress conjugate to γ), within 3 % of k at 0° and at 45° and within 3 %
-    of each other; it does not harden (last frame within 2 % of the 5th
+    of each other; it does not harden (last frame within 3 % of the 5th
     yield strain's); the energy balance within 1 % of the work."""
     area = L * (T if dim == 2 else L)
     tau = {}
@@ -169,7 +169,7 @@ def test_voronoi_shear_strength_at_0_and_45_degrees(run_case, dim, mesh, band):
         t = 0.5 * (np.abs(h.observables["fr"]) + np.abs(h.observables["ft"])) / area
         t = t[len(t) // 2:]
         assert np.all(np.abs(t / K - 1.0) < 3e-2), (angle, t / K)
-        assert abs(t[-1] / t[0] - 1.0) < 2e-2, (angle, t / K)
+        assert abs(t[-1] / t[0] - 1.0) < 3e-2, (angle, t / K)
         e = h.energy_balance()
         assert abs(e["error"][-1]) <= 1e-2 * e["supplied"][-1]
         tau[angle] = t.mean()

@@ -114,21 +114,12 @@ def _yield_field(model, case):
         w = mesh.bface_area[:, None] * np.abs(mesh.bface_normal)          # (B, 3)
         wsum = np.zeros((n, 3))
         np.add.at(wsum, bc, w)
-        area_sum = np.bincount(bc, mesh.bface_area, minlength=n)[:n]
-        area_acc = np.zeros((n, 3))
-        np.add.at(area_acc, bc, mesh.bface_area[:, None] * mesh.bface_centroid)
         for k in range(3):
             acc = np.zeros((n, 3))
             np.add.at(acc, bc, w[:, k:k + 1] * mesh.bface_centroid)
             ok = held[:, k] & (wsum[:, k] > 0.0)
             lever[:n][ok, k] = (acc[ok] / wsum[ok, k:k + 1]
                                 - model.body_pos0[:n][ok])
-            # held along its boundary faces (a shear traction: none of
-            # them has a normal along k): the reaction acts on those faces,
-            # at their area centroid
-            tan = held[:, k] & (wsum[:, k] <= 0.0) & (area_sum > 0.0)
-            lever[:n][tan, k] = (area_acc[tan] / area_sum[tan, None]
-                                 - model.body_pos0[:n][tan])
     k = np.zeros(n + 1)
     g2 = np.ones(n + 1)
     for i, mat in enumerate(case.materials.values()):
