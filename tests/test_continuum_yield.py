@@ -176,6 +176,24 @@ def test_voronoi_shear_strength_at_0_and_45_degrees(run_case, dim, mesh, band):
     assert tau[45] / tau[0] == pytest.approx(1.0, abs=3e-2), tau
 
 
+def test_thick_moved_band_noted():
+    """A group moved as one whose plastic cells do not all reach the surface
+    (the quarter-wide bands of `biaxial` on 0.5 mm Voronoi cells: such a
+    square hardens to 1.6 k over ten yield strains) gets a note naming the
+    boundary item; the one-cell bands of `pure_shear` and the punch's one
+    row of blocks get none."""
+    from pathlib import Path
+    from rbsm_dyn.model import build_model
+
+    def notes(text):
+        return [w for w in build_model(load_case_text(textwrap.dedent(text))).warnings
+                if "inside the body" in w]
+    thick = notes(biaxial("{kind: voronoi, size: 0.0005, seed: 1}"))
+    assert len(thick) == 2 and thick[0].startswith("boundary[2] moves group right"), thick
+    assert notes(pure_shear("{kind: voronoi, size: 0.0005, seed: 1}", 45)) == []
+    assert notes((Path(__file__).parent.parent / "cases" / "punch.yaml").read_text()) == []
+
+
 def test_voronoi_static_refused():
     """Static runs with continuum yield on Voronoi cells: a CaseError naming
     solver.mode (Newton's plastic set cycles there; docs/theory.md)."""

@@ -38,6 +38,7 @@ def build_model(case, mesh=None):
                                                             body_material, body_rigid)
     dof_kind, dof_value, dof_hist, ground_hist, ground_dir = constraints(case, mesh, groups,
                                                                          hist, notes)
+    _moved_plastic_notes(case, mesh, groups, body_material, notes)
     if case.plane is not None:
         # a plane model moves in x-y and turns about z (physics/plane.py); the
         # 3D solvers that serve it (output, Newton, modal) see z, rx, ry held
@@ -61,6 +62,40 @@ def build_model(case, mesh=None):
                        or np.any(laws.law_params[:, [P_CRIT, P_RUPT]] > 0)))
     model = _yield_field(model, case)
     return _with_contact(case, model, notes)
+
+
+def _moved_plastic_notes(case, mesh, groups, body_material, notes):
+    """A note for each boundary item that moves a group (velocity or
+    displacement) holding cells of a continuum-yield material that do not
+    reach the body's surface: the item moves all its cells together in the
+    components it gives, so those cells cannot flow, and a band of them is
+    a stiff block that raises a limit load (a square in pure shear loaded
+    on bands a quarter of its side deep: 1.6 k at ten yield strains, k on
+    one-cell bands; benchmarks/results/continuum_yield.md)."""
+    cont = [i for i, mat in enumerate(case.materials.values())
+            if mat.yield_ is not None and mat.yield_.model == "continuum"]
+    if not cont or not case.boundary:
+        return
+    outer = np.zeros(mesh.n_cells, dtype=bool)
+    side = np.ones(len(mesh.bface_cell), dtype=bool)
+    if case.plane is not None:
+        side = np.abs(mesh.bface_normal[:, 2]) < 0.5     # not the plane's faces
+    outer[mesh.bface_cell[side]] = True
+    plastic = np.isin(body_material, cont)
+    for j, item in enumerate(case.boundary):
+        group = getattr(item, "group", None)
+        vec = getattr(item, "velocity", None)
+        if vec is None:
+            vec = getattr(item, "displacement", None)
+        if group is None or vec is None or all(v is None for v in vec[:3]):
+            continue
+        ids = groups[group]
+        inner = int(np.count_nonzero(plastic[ids] & ~outer[ids]))
+        if inner and len(ids) > 1:
+            notes.append(f"boundary[{j}] moves group {group}'s {len(ids)} cells together, "
+                         f"{inner} of them inside the body: with continuum yield they cannot "
+                         "flow in the components it gives (a stiff block that raises the "
+                         "limit load); move one layer of cells at the surface")
 
 
 #: an axis carries "no springs" below this share of a cell's Σ A n_k²
