@@ -17,6 +17,7 @@ value, or the file), the files left intact, the values finite.
 import os
 import re
 import signal
+import stat
 import subprocess
 import sys
 import textwrap
@@ -694,6 +695,20 @@ def test_export_of_a_history_without_body_fields_writes_the_cells_once(tmp_path,
 
 
 # ------------------------------------------------------------------ 11: messages
+
+def test_out_that_is_not_a_regular_file_is_refused(tmp_path, capsys):
+    """--out naming a pipe (as /dev/null names a device): exit 2 naming it,
+    and the pipe left as it was.  The run stages its history beside the
+    path and renames it into place: `--out /dev/null` run as root replaced
+    the device with a file."""
+    case = _write(tmp_path, SMALL, "small.yaml")
+    pipe = tmp_path / "pipe"
+    os.mkfifo(pipe)
+    code, _, err = _run([case, "--out", pipe, "--quiet"], capsys)
+    assert code == 2
+    assert f"--out {pipe}: is not a regular file" in _one_error_line(err)
+    assert stat.S_ISFIFO(os.stat(pipe).st_mode)
+
 
 @pytest.mark.parametrize("command", ["export", "render", "plot"])
 def test_directory_and_non_hdf5_inputs_are_named(tmp_path, capsys, command):

@@ -81,6 +81,12 @@ def _output_problem(case, args, case_path):
     folder = os.path.dirname(os.path.abspath(out))
     if os.path.isdir(out):
         return where("is a directory")
+    if os.path.exists(out) and not os.path.isfile(out):
+        # a device (/dev/null), a pipe or a socket: the history is written
+        # beside it and renamed over it, which would replace the device
+        return where("is not a regular file (a device or a pipe: the run writes its history "
+                     "beside it and renames it into place, which would replace it); give a "
+                     "file name")
     if not os.path.isdir(folder):
         return where(f"no such directory {folder}")
     if not os.access(folder, os.W_OK):
