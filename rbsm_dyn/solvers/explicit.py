@@ -393,7 +393,7 @@ def run(case, model, recorder, *, max_steps=None, progress=None, chunk_steps=Non
         start_step = state.step
         _loop(model, state, recorder, progress, record, energy_runaway, ckpt, guard, e0,
               schedule, chunk_steps, (alpha, local), v_limit, est, adapt, governor,
-              stepper or advance)
+              stepper or advance, obs0=obs)
         if restart is None or state.step != start_step:
             # (a restart that has no step left to make -- killed after its
             # end-of-run checkpoint, before "completed" -- does not write that
@@ -554,8 +554,10 @@ def _contact_hint(model, state):
 
 def _loop(model, state, recorder, progress, record, energy_runaway, ckpt, guard, e0,
           schedule, chunk_steps, damping, v_limit, est, adapt=None, governor=None,
-          stepper=advance):
-    obs = {}
+          stepper=advance, obs0=None):
+    # the last frame's observables (the progress line's Ek: the start's
+    # until the first frame of the loop)
+    obs = dict(obs0 or {})
     over = 0                  # output frames in a row over the energy bound
     # the passes, once per run: for the most threads the run may take
     opt = Options.of(model, threads=None if governor is None else governor.available)
