@@ -188,8 +188,22 @@ def _spring_points(vertex_ptr, vertex_xyz, normal, rule="moment"):
     """
     if rule not in RULES:
         raise ValueError(f"unknown spring point rule {rule!r}; expected one of {RULES}")
-    vertex_xyz = np.asarray(vertex_xyz, dtype=np.float64)
-    normal = np.asarray(normal, dtype=np.float64)
+    vertex_xyz = np.ascontiguousarray(vertex_xyz, dtype=np.float64)
+    normal = np.ascontiguousarray(normal, dtype=np.float64)
+    if rule != "three":
+        # convex faces in one compiled loop (the formulas below); a face
+        # with a fan triangle of negative area (non-convex) sends the batch
+        # down the vectorised path, which cuts such faces by ear clipping
+        vertex_ptr = np.asarray(vertex_ptr, dtype=np.int64)
+        if np.any(np.diff(vertex_ptr) < 3):
+            raise ValueError("every face needs at least 3 vertices")
+        area, c = polygon_properties(vertex_ptr, vertex_xyz, normal)
+        K = int(vertex_ptr[-1])
+        point, weight = np.empty((K, 3)), np.empty(K)
+        face = np.empty(K, dtype=np.int64)
+        if _fan_points(vertex_ptr, vertex_xyz, normal, c, rule == "moment", point, weight,
+                       face):
+            return SpringPoints(point, weight, face)
     n, poly, nxt = _polygon_index(vertex_ptr)
     F = len(n)
     area, c = polygon_properties(vertex_ptr, vertex_xyz, normal)
@@ -268,6 +282,100 @@ def _spring_points(vertex_ptr, vertex_xyz, normal, rule="moment"):
     nv = T21[tri] * du + T22[tri] * dv
     point = c[tri] + nu[:, None] * E1 + nv[:, None] * E2
     return SpringPoints(point, w, tri.copy())
+
+
+@nb.njit(cache=True, nogil=True, parallel=True, error_model="numpy")
+def _fan_points(ptr, xyz, normal, c, moment, point, weight, face):
+    """Rules "centroid" and "moment" (moment: True) on convex faces, one
+    point per fan triangle (c, v_k, v_k+1) into point/weight/face (rows of
+    xyz); the module docstring's formulas, face by face.  Returns False (and
+    leaves the rows unfinished) if a face has a fan triangle of negative
+    area: a non-convex face, for the vectorised path's ear clipping."""
+    F = len(ptr) - 1
+    ok = np.ones(F, dtype=np.bool_)
+    for f in nb.prange(F):
+        a0, a1 = ptr[f], ptr[f + 1]
+        n0, n1, n2 = normal[f, 0], normal[f, 1], normal[f, 2]
+        # e1 = n × (x̂ or ŷ) normalised, e2 = n × e1
+        if abs(n0) < 0.9:
+            e10, e11, e12 = 0.0, n2, -n1
+        else:
+            e10, e11, e12 = -n2, 0.0, n0
+        r = np.sqrt(e10 * e10 + e11 * e11 + e12 * e12)
+        e10 /= r
+        e11 /= r
+        e12 /= r
+        e20 = n1 * e12 - n2 * e11
+        e21 = n2 * e10 - n0 * e12
+        e22 = n0 * e11 - n1 * e10
+        J11 = J12 = J22 = P11 = P12 = P22 = 0.0
+        for i in range(a0, a1):
+            j = i + 1 if i + 1 < a1 else a0
+            q10, q11, q12 = xyz[i, 0] - c[f, 0], xyz[i, 1] - c[f, 1], xyz[i, 2] - c[f, 2]
+            q20, q21, q22 = xyz[j, 0] - c[f, 0], xyz[j, 1] - c[f, 1], xyz[j, 2] - c[f, 2]
+            w = 0.5 * ((q11 * q22 - q12 * q21) * n0 + (q12 * q20 - q10 * q22) * n1
+                       + (q10 * q21 - q11 * q20) * n2)
+            if w < 0.0:
+                ok[f] = False
+            u1 = q10 * e10 + q11 * e11 + q12 * e12
+            v1 = q10 * e20 + q11 * e21 + q12 * e22
+            u2 = q20 * e10 + q21 * e11 + q22 * e12
+            v2 = q20 * e20 + q21 * e21 + q22 * e22
+            su, sv = u1 + u2, v1 + v2
+            # ∫ over the triangle (0, q1, q2) of x xᵀ = A/12 (Σ qi qiᵀ + s sᵀ)
+            J11 += w * (u1 * u1 + u2 * u2 + su * su)
+            J12 += w * (u1 * v1 + u2 * v2 + su * sv)
+            J22 += w * (v1 * v1 + v2 * v2 + sv * sv)
+            P11 += w * su * su
+            P12 += w * su * sv
+            P22 += w * sv * sv
+            weight[i] = w
+            face[i] = f
+            # the triangle's centroid offset s/3, in (e1, e2) for now
+            point[i, 0] = su / 3.0
+            point[i, 1] = sv / 3.0
+        T11, T12, T21, T22 = 1.0, 0.0, 0.0, 1.0
+        if moment:
+            J11 /= 12.0
+            J12 /= 12.0
+            J22 /= 12.0
+            P11 /= 9.0
+            P12 /= 9.0
+            P22 /= 9.0
+            # T = J^½ Jp^-½ (symmetric square roots in closed form, _sqrt_spd2)
+            sj = np.sqrt(max(J11 * J22 - J12 * J12, 0.0))
+            tj = np.sqrt(J11 + J22 + 2.0 * sj)
+            r11, r12, r22 = (J11 + sj) / tj, J12 / tj, (J22 + sj) / tj
+            sp = np.sqrt(max(P11 * P22 - P12 * P12, 0.0))
+            tp = np.sqrt(P11 + P22 + 2.0 * sp)
+            p11, p12, p22 = (P11 + sp) / tp, P12 / tp, (P22 + sp) / tp
+            qdet = p11 * p22 - p12 * p12
+            i11, i12, i22 = p22 / qdet, -p12 / qdet, p11 / qdet
+            T11 = r11 * i11 + r12 * i12
+            T12 = r11 * i12 + r12 * i22
+            T21 = r12 * i11 + r22 * i12
+            T22 = r12 * i12 + r22 * i22
+            trJ, trP = J11 + J22, P11 + P22
+            good = ((J11 * J22 - J12 * J12 > 1e-12 * trJ * trJ)
+                    and (P11 * P22 - P12 * P12 > 1e-12 * trP * trP)
+                    and np.isfinite(T11) and np.isfinite(T12) and np.isfinite(T21)
+                    and np.isfinite(T22))
+            if not good:   # a sliver: scale isotropically to the exact polar moment
+                sc = np.sqrt(trJ / trP)
+                if not np.isfinite(sc):
+                    sc = 1.0
+                T11, T12, T21, T22 = sc, 0.0, 0.0, sc
+        for i in range(a0, a1):
+            du, dv = point[i, 0], point[i, 1]
+            nu = T11 * du + T12 * dv
+            nv = T21 * du + T22 * dv
+            point[i, 0] = c[f, 0] + nu * e10 + nv * e20
+            point[i, 1] = c[f, 1] + nu * e11 + nv * e21
+            point[i, 2] = c[f, 2] + nu * e12 + nv * e22
+    for f in range(F):
+        if not ok[f]:
+            return False
+    return True
 
 
 def _ear_fans(vertex_ptr, vertex_xyz, normal, c, bent, poly, q0, q1, q2, w):

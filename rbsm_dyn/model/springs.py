@@ -91,7 +91,7 @@ def internal_springs(case, mesh, parts, body_part, body_rigid, laws):
     a = mesh.face_cells[f, 0].astype(IDX)
     b = mesh.face_cells[f, 1].astype(IDX)
     nrm = mesh.face_normal[f]
-    h_a, h_b = _half_lengths(mesh, f, a, b, nrm, body_rigid)
+    h_a, h_b = _half_lengths(mesh, f, body_rigid)
     e0, alpha = laws.e0, laws.alpha
     # half-lengths in series (Kawai 1978: h = h1 + h2)
     kn = 1.0 / (h_a / e0[a] + h_b / e0[b])
@@ -120,10 +120,20 @@ def _min_half_length(volume, area):
     return 0.05 * np.minimum(np.cbrt(volume), volume / np.maximum(area, 1e-300))
 
 
-def _half_lengths(mesh, f, a, b, nrm, body_rigid):
-    """Half-lengths h_a, h_b of the internal springs: centroid to face along n."""
+def _half_lengths(mesh, f, body_rigid):
+    """Half-lengths h_a, h_b of the internal springs: centroid to face along
+    n (a face's, taken by its spring points f)."""
+    h_a, h_b = _face_half_lengths(mesh, body_rigid)
+    return h_a[f], h_b[f]
+
+
+def _face_half_lengths(mesh, body_rigid):
+    """Half-lengths of each internal face's springs (_half_lengths), per
+    face: its spring points share them (a face has about five)."""
     cen = mesh.cell_centroid
-    fc = mesh.face_centroid[f]
+    fc = mesh.face_centroid
+    a, b = mesh.face_cells[:, 0], mesh.face_cells[:, 1]
+    nrm = mesh.face_normal
     h_a = np.einsum("ij,ij->i", fc - cen[a], nrm)
     h_b = np.einsum("ij,ij->i", cen[b] - fc, nrm)
     # A cell clipped around a notch tip or a hole may be non-convex, its
@@ -131,8 +141,8 @@ def _half_lengths(mesh, f, a, b, nrm, body_rigid):
     # face takes the distance's magnitude, at least a twentieth of the
     # cell's size across the face (convex cells always have h > 0; only
     # slivers thinner than that are touched; _min_half_length)
-    h_min_a = _min_half_length(mesh.cell_volume[a], mesh.face_area[f])
-    h_min_b = _min_half_length(mesh.cell_volume[b], mesh.face_area[f])
+    h_min_a = _min_half_length(mesh.cell_volume[a], mesh.face_area)
+    h_min_b = _min_half_length(mesh.cell_volume[b], mesh.face_area)
     h_a = np.maximum(np.abs(h_a), h_min_a)
     h_b = np.maximum(np.abs(h_b), h_min_b)
     # a rigid body's side of a spring has no length (and no compliance)
