@@ -63,7 +63,13 @@ def spring_schedule(spring_bodies, n_bodies, parts=PARTS):
             g += 1
         phase_ptr.append(g)
     group = gid[lo, hi]
-    order = np.lexsort((b, a, group))
+    # np.lexsort((b, a, group)) as one stable sort of a combined key (a third
+    # of the time on 10⁷ springs; the same permutation: both are stable)
+    m = n_bodies + 1
+    if g * m * m < 2**62:
+        order = np.argsort((group * m + a) * m + b, kind="stable")
+    else:
+        order = np.lexsort((b, a, group))
     counts = np.bincount(group, minlength=g)
     group_ptr = np.zeros(g + 1, dtype=np.int32)
     np.cumsum(counts, out=group_ptr[1:])

@@ -160,6 +160,11 @@ def spring_points(vertex_ptr, vertex_xyz, normal, rule="moment"):
     F = len(vertex_ptr) - 1
     if F <= BATCH_FACES:
         return _spring_points(vertex_ptr, vertex_xyz, normal, rule)
+    if rule != "three":
+        # the compiled loop has no temporaries: all faces at once
+        sp = _convex_points(vertex_ptr, vertex_xyz, normal, rule)
+        if sp is not None:
+            return sp
     parts = []
     for f0 in range(0, F, BATCH_FACES):
         f1 = min(F, f0 + BATCH_FACES)
@@ -191,19 +196,9 @@ def _spring_points(vertex_ptr, vertex_xyz, normal, rule="moment"):
     vertex_xyz = np.ascontiguousarray(vertex_xyz, dtype=np.float64)
     normal = np.ascontiguousarray(normal, dtype=np.float64)
     if rule != "three":
-        # convex faces in one compiled loop (the formulas below); a face
-        # with a fan triangle of negative area (non-convex) sends the batch
-        # down the vectorised path, which cuts such faces by ear clipping
-        vertex_ptr = np.asarray(vertex_ptr, dtype=np.int64)
-        if np.any(np.diff(vertex_ptr) < 3):
-            raise ValueError("every face needs at least 3 vertices")
-        area, c = polygon_properties(vertex_ptr, vertex_xyz, normal)
-        K = int(vertex_ptr[-1])
-        point, weight = np.empty((K, 3)), np.empty(K)
-        face = np.empty(K, dtype=np.int64)
-        if _fan_points(vertex_ptr, vertex_xyz, normal, c, rule == "moment", point, weight,
-                       face):
-            return SpringPoints(point, weight, face)
+        sp = _convex_points(vertex_ptr, vertex_xyz, normal, rule)
+        if sp is not None:
+            return sp
     n, poly, nxt = _polygon_index(vertex_ptr)
     F = len(n)
     area, c = polygon_properties(vertex_ptr, vertex_xyz, normal)
@@ -282,6 +277,25 @@ def _spring_points(vertex_ptr, vertex_xyz, normal, rule="moment"):
     nv = T21[tri] * du + T22[tri] * dv
     point = c[tri] + nu[:, None] * E1 + nv[:, None] * E2
     return SpringPoints(point, w, tri.copy())
+
+
+def _convex_points(vertex_ptr, vertex_xyz, normal, rule):
+    """Rules "centroid" and "moment" on convex faces in one compiled loop
+    (_fan_points: the formulas of _spring_points); None if a face has a fan
+    triangle of negative area (non-convex): the vectorised path cuts such
+    faces by ear clipping."""
+    vertex_ptr = np.asarray(vertex_ptr, dtype=np.int64)
+    if np.any(np.diff(vertex_ptr) < 3):
+        raise ValueError("every face needs at least 3 vertices")
+    vertex_xyz = np.ascontiguousarray(vertex_xyz, dtype=np.float64)
+    normal = np.ascontiguousarray(normal, dtype=np.float64)
+    area, c = polygon_properties(vertex_ptr, vertex_xyz, normal)
+    K = int(vertex_ptr[-1])
+    point, weight = np.empty((K, 3)), np.empty(K)
+    face = np.empty(K, dtype=np.int64)
+    if _fan_points(vertex_ptr, vertex_xyz, normal, c, rule == "moment", point, weight, face):
+        return SpringPoints(point, weight, face)
+    return None
 
 
 @nb.njit(cache=True, nogil=True, parallel=True, error_model="numpy")

@@ -17,7 +17,7 @@ from .core import IDX, Model
 from .laws import body_materials, compression_notes, law_slots, viscous_laws
 from .loads import Amplitudes, body_groups, body_loads, constraints, interface_notes
 from .mesh_build import build_mesh
-from .springs import face_table, internal_springs, spring_arms, support_springs
+from .springs import face_rows, face_table, internal_springs, spring_arms, support_springs
 
 
 def build_model(case, mesh=None):
@@ -200,14 +200,16 @@ def _bodies(mesh, laws, body_material):
 
 def _springs_and_faces(case, mesh, parts, body_part, body_rigid, laws, rot0, pos0):
     """The springs' and face table's Model fields, each spring's face, the number cut."""
-    internal, n_cut = internal_springs(case, mesh, parts, body_part, body_rigid, laws)
+    internal, internal_rows, n_cut = internal_springs(case, mesh, parts, body_part, body_rigid,
+                                                      laws)
     pieces = [internal] + support_springs(case, mesh, parts, body_part, laws)
-    del internal
+    rows = face_rows(internal_rows, pieces)
+    del internal, internal_rows
     cat, group_ptr, phase_ptr = _schedule(pieces, mesh.n_cells)
     del pieces
     sb = np.stack([cat.pop("a"), cat.pop("b")], axis=1).astype(IDX, copy=False)
     arm_a, arm_b = spring_arms(rot0, pos0, sb, cat.pop("point"))
-    slot, table, face_ref = face_table(cat)
+    slot, table, face_ref = face_table(cat, rows)
     fields = dict(
         spring_bodies=sb, spring_arm_a=np.ascontiguousarray(arm_a),
         spring_arm_b=np.ascontiguousarray(arm_b), spring_slot=slot, spring_area=cat["area"],

@@ -90,22 +90,27 @@ def internal_springs(case, mesh, parts, body_part, body_rigid, laws):
     f = sp.face
     a = mesh.face_cells[f, 0].astype(IDX)
     b = mesh.face_cells[f, 1].astype(IDX)
-    nrm = mesh.face_normal[f]
-    h_a, h_b = _half_lengths(mesh, f, body_rigid)
+    # what a face's spring points share is computed per face (a face has
+    # about five) and taken by f
+    fa, fb = mesh.face_cells[:, 0], mesh.face_cells[:, 1]
+    h_a, h_b = _face_half_lengths(mesh, body_rigid)
     e0, alpha = laws.e0, laws.alpha
     # half-lengths in series (Kawai 1978: h = h1 + h2)
-    kn = 1.0 / (h_a / e0[a] + h_b / e0[b])
-    ks = 1.0 / (h_a / (alpha[a] * e0[a]) + h_b / (alpha[b] * e0[b]))
+    kn = 1.0 / (h_a / e0[fa] + h_b / e0[fb])
+    ks = 1.0 / (h_a / (alpha[fa] * e0[fa]) + h_b / (alpha[fb] * e0[fb]))
     if mesh.face_interface is not None:
-        _interface_layers(case, parts, mesh.face_interface[f], a, b, h_a, h_b, laws, kn, ks)
+        _interface_layers(case, parts, mesh.face_interface, fa, fb, h_a, h_b, laws, kn, ks)
     keep = _uncut(case, mesh.cell_centroid, a, b, sp.point)
     n_cut = int((~keep).sum())
-    law, state0 = _internal_laws(case, mesh, f, a, b, body_rigid, laws, keep)
-    internal = dict(a=a, b=b, point=sp.point, area=sp.weight, h=h_a + h_b,
-                    kpa=np.stack([kn, ks, ks], axis=1),
-                    frame=_frames_from_normals(nrm) if case.plane is None else plane_frames(nrm),
-                    face=f.astype(IDX), law=law, state0=state0)
-    return internal, n_cut
+    law, contact = _face_laws(case, mesh, fa, fb, body_rigid, laws)
+    state0 = np.where(keep & ~contact[f], ELASTIC, BROKEN).astype(np.int8)
+    nrm = mesh.face_normal
+    frame = _frames_from_normals(nrm) if case.plane is None else plane_frames(nrm)
+    # FACE_KEYS per face (rows), the rest per spring point (row: its face)
+    internal = dict(a=a, b=b, point=sp.point, area=sp.weight, face=f.astype(IDX),
+                    state0=state0, row=f.astype(np.int64))
+    rows = dict(h=h_a + h_b, kpa=np.stack([kn, ks, ks], axis=1), frame=frame, law=law)
+    return internal, rows, n_cut
 
 
 def _min_half_length(volume, area):
@@ -120,16 +125,9 @@ def _min_half_length(volume, area):
     return 0.05 * np.minimum(np.cbrt(volume), volume / np.maximum(area, 1e-300))
 
 
-def _half_lengths(mesh, f, body_rigid):
-    """Half-lengths h_a, h_b of the internal springs: centroid to face along
-    n (a face's, taken by its spring points f)."""
-    h_a, h_b = _face_half_lengths(mesh, body_rigid)
-    return h_a[f], h_b[f]
-
-
 def _face_half_lengths(mesh, body_rigid):
-    """Half-lengths of each internal face's springs (_half_lengths), per
-    face: its spring points share them (a face has about five)."""
+    """Half-lengths h_a, h_b of each internal face's springs: centroid to
+    face along n."""
     cen = mesh.cell_centroid
     fc = mesh.face_centroid
     a, b = mesh.face_cells[:, 0], mesh.face_cells[:, 1]
@@ -183,8 +181,9 @@ def _uncut(case, cen, a, b, point):
     return keep
 
 
-def _internal_laws(case, mesh, f, a, b, body_rigid, laws, keep):
-    """Law row and initial state of each internal spring."""
+def _face_laws(case, mesh, a, b, body_rigid, laws):
+    """Law row of each internal face's springs, and whether the face starts
+    as contact (an interface with law: contact)."""
     body_slot, law_params, n_slots = laws.body_slot, laws.law_params, laws.n_slots
     # law of each internal spring: the weaker of its two cells' slots (row 1 + slot);
     # on an interface, the interface's row (bonded with a material, contact)
@@ -193,16 +192,16 @@ def _internal_laws(case, mesh, f, a, b, body_rigid, laws, keep):
     weaker = np.where(slot_strength[sa_] <= slot_strength[sb_], sa_, sb_)
     weaker = np.where(body_rigid[a], sb_, np.where(body_rigid[b], sa_, weaker))
     law = (1 + weaker).astype(IDX)
-    state0 = np.where(keep, ELASTIC, BROKEN).astype(np.int8)
+    contact = np.zeros(len(a), dtype=bool)
     if mesh.face_interface is not None:
-        fi = mesh.face_interface[f]
+        fi = mesh.face_interface
         for i, it in enumerate(case.interfaces):
             on = fi == i
             if laws.iface_row[i] >= 0:
                 law[on] = laws.iface_row[i]
             if it.law == "contact":
-                state0[on] = BROKEN
-    return law, state0
+                contact[on] = True
+    return law, contact
 
 
 def support_springs(case, mesh, parts, body_part, laws):
@@ -304,8 +303,31 @@ def spring_arms(rot0, pos0, sb, point):
     return arm_a, arm_b
 
 
-def face_table(cat):
-    """The face table of the spring table cat (in schedule order): slot, table, face_ref."""
+#: what the spring points of one face share, held once per face
+FACE_KEYS = ("frame", "kpa", "h", "law")
+
+
+def face_rows(internal_rows, pieces):
+    """The rows of what faces share (FACE_KEYS): the internal faces' (per
+    face, internal_springs), then each support spring's own, taken out of
+    its piece; each piece's springs get their ``row``."""
+    F = len(internal_rows["h"])
+    rows = {key: [internal_rows[key]] for key in FACE_KEYS}
+    start = F
+    for p in pieces:
+        if "row" in p:
+            continue
+        n = len(p["a"])
+        for key in FACE_KEYS:
+            rows[key].append(p.pop(key))
+        p["row"] = np.arange(start, start + n, dtype=np.int64)
+        start += n
+    return {key: np.concatenate(v) for key, v in rows.items()}
+
+
+def face_table(cat, rows):
+    """The face table of the spring table cat (in schedule order), from the
+    face rows of face_rows: slot, table, face_ref."""
     # the face table: what the spring points of one face share (frame,
     # stiffness per area, length, law) is held once per face; springs point
     # to their face's row (spring_slot).  The points of a face follow each
@@ -314,5 +336,6 @@ def face_table(cat):
     first = np.ones(len(face), dtype=bool)
     first[1:] = face[1:] != face[:-1]
     slot = (np.cumsum(first) - 1).astype(IDX)
-    table = {key: np.ascontiguousarray(cat.pop(key)[first]) for key in ("frame", "kpa", "h", "law")}
+    row = cat.pop("row")[first]
+    table = {key: np.ascontiguousarray(rows[key][row]) for key in FACE_KEYS}
     return slot, table, np.ascontiguousarray(face[first]).astype(IDX, copy=False)
