@@ -62,7 +62,6 @@ def _scaled_row_sums(spring_bodies, spring_arm_a, spring_arm_b, rot, frames, spr
     K_s = Bᵀ C B with C = F diag(k) Fᵀ and, for end e of the spring,
     B_e = ±[I, −R_e [r_e]×] (r_e the arm in the principal frame; Kawai 1978,
     eq. 8b)."""
-    n = body_mass.shape[0]
     B = np.zeros((3, 12))
     C = np.zeros((3, 3))
     CB = np.zeros((3, 12))
@@ -73,45 +72,99 @@ def _scaled_row_sums(spring_bodies, spring_arm_a, spring_arm_b, rot, frames, spr
             for c in range(3):
                 C[r, c] = (Fm[r, 0] * spring_k[s, 0] * Fm[c, 0] + Fm[r, 1] * spring_k[s, 1] * Fm[c, 1]
                            + Fm[r, 2] * spring_k[s, 2] * Fm[c, 2])
-        for e in range(2):
-            body = spring_bodies[s, e]
-            if body >= n:
-                for j in range(6):
-                    scale[6 * e + j] = 0.0
-                    for r in range(3):
-                        B[r, 6 * e + j] = 0.0
-                continue
-            sign = -1.0 if e == 0 else 1.0
-            arm = spring_arm_a[s] if e == 0 else spring_arm_b[s]
-            R = rot[body]
-            # column j of [r]× is r × e_j; θ × r = −r × θ  ->  −R [r]× θ_body
-            for j in range(3):
-                cx = arm[1] * (1.0 if j == 2 else 0.0) - arm[2] * (1.0 if j == 1 else 0.0)
-                cy = arm[2] * (1.0 if j == 0 else 0.0) - arm[0] * (1.0 if j == 2 else 0.0)
-                cz = arm[0] * (1.0 if j == 1 else 0.0) - arm[1] * (1.0 if j == 0 else 0.0)
+        _spring_rows(spring_bodies[s, 0], spring_bodies[s, 1], spring_arm_a[s], spring_arm_b[s],
+                     C, rot, body_mass, body_inertia, active, x, out, B, CB, scale)
+
+
+@nb.njit(cache=True, parallel=True)
+def _face_row_sums(springs, bodies, active, x, out):
+    """_scaled_row_sums on the model's own tables: each spring's C from its
+    face's frame quaternion and stiffness per area (no per-spring frames or
+    stiffnesses: 96 B a spring point), the groups of a phase in parallel
+    (partition.py: no two share a body, and each body's sums come in the
+    serial order, so the result is the serial one bit for bit).  springs =
+    (spring_bodies, arm_a, arm_b, face_frame0, face_k, spring_slot,
+    spring_area, group_ptr, phase_ptr); bodies = (rot, body_mass,
+    body_inertia)."""
+    (spring_bodies, arm_a, arm_b, face_frame0, face_k, spring_slot, spring_area, group_ptr,
+     phase_ptr) = springs
+    rot, body_mass, body_inertia = bodies
+    for ph in range(len(phase_ptr) - 1):
+        for g in nb.prange(phase_ptr[ph], phase_ptr[ph + 1]):
+            B = np.zeros((3, 12))
+            C = np.zeros((3, 3))
+            CB = np.zeros((3, 12))
+            scale = np.zeros(12)
+            F = np.empty((3, 3))
+            for s in range(group_ptr[g], group_ptr[g + 1]):
+                f = spring_slot[s]
+                # the face's frame (quat_matrix_np's formula) and k = k/A × A (Model.spring_k)
+                w, qx, qy, qz = (face_frame0[f, 0], face_frame0[f, 1], face_frame0[f, 2],
+                                 face_frame0[f, 3])
+                F[0, 0] = 1.0 - 2.0 * (qy * qy + qz * qz)
+                F[0, 1] = 2.0 * (qx * qy - w * qz)
+                F[0, 2] = 2.0 * (qx * qz + w * qy)
+                F[1, 0] = 2.0 * (qx * qy + w * qz)
+                F[1, 1] = 1.0 - 2.0 * (qx * qx + qz * qz)
+                F[1, 2] = 2.0 * (qy * qz - w * qx)
+                F[2, 0] = 2.0 * (qx * qz - w * qy)
+                F[2, 1] = 2.0 * (qy * qz + w * qx)
+                F[2, 2] = 1.0 - 2.0 * (qx * qx + qy * qy)
+                k0 = face_k[f, 0] * spring_area[s]
+                k1 = face_k[f, 1] * spring_area[s]
+                k2 = face_k[f, 2] * spring_area[s]
                 for r in range(3):
-                    B[r, 6 * e + j] = sign * (1.0 if r == j else 0.0)
-                    B[r, 6 * e + 3 + j] = -sign * (R[r, 0] * cx + R[r, 1] * cy + R[r, 2] * cz)
-            m = body_mass[body]
-            for j in range(3):
-                scale[6 * e + j] = active[body, j] / np.sqrt(m)
-                scale[6 * e + 3 + j] = active[body, 3 + j] / np.sqrt(body_inertia[body, j])
-        for r in range(3):
+                    for c in range(3):
+                        C[r, c] = (F[r, 0] * k0 * F[c, 0] + F[r, 1] * k1 * F[c, 1]
+                                   + F[r, 2] * k2 * F[c, 2])
+                _spring_rows(spring_bodies[s, 0], spring_bodies[s, 1], arm_a[s], arm_b[s], C,
+                             rot, body_mass, body_inertia, active, x, out, B, CB, scale)
+
+
+@nb.njit(inline="always", cache=True)
+def _spring_rows(ba, bb, arm_a, arm_b, C, rot, body_mass, body_inertia, active, x, out, B, CB,
+                 scale):
+    """One spring's share of (P x) on its bodies ba, bb (_scaled_row_sums)."""
+    n = body_mass.shape[0]
+    for e in range(2):
+        body = ba if e == 0 else bb
+        if body >= n:
+            for j in range(6):
+                scale[6 * e + j] = 0.0
+                for r in range(3):
+                    B[r, 6 * e + j] = 0.0
+            continue
+        sign = -1.0 if e == 0 else 1.0
+        arm = arm_a if e == 0 else arm_b
+        R = rot[body]
+        # column j of [r]× is r × e_j; θ × r = −r × θ  ->  −R [r]× θ_body
+        for j in range(3):
+            cx = arm[1] * (1.0 if j == 2 else 0.0) - arm[2] * (1.0 if j == 1 else 0.0)
+            cy = arm[2] * (1.0 if j == 0 else 0.0) - arm[0] * (1.0 if j == 2 else 0.0)
+            cz = arm[0] * (1.0 if j == 1 else 0.0) - arm[1] * (1.0 if j == 0 else 0.0)
+            for r in range(3):
+                B[r, 6 * e + j] = sign * (1.0 if r == j else 0.0)
+                B[r, 6 * e + 3 + j] = -sign * (R[r, 0] * cx + R[r, 1] * cy + R[r, 2] * cz)
+        m = body_mass[body]
+        for j in range(3):
+            scale[6 * e + j] = active[body, j] / np.sqrt(m)
+            scale[6 * e + 3 + j] = active[body, 3 + j] / np.sqrt(body_inertia[body, j])
+    for r in range(3):
+        for j in range(12):
+            CB[r, j] = C[r, 0] * B[0, j] + C[r, 1] * B[1, j] + C[r, 2] * B[2, j]
+    for e in range(2):
+        body = ba if e == 0 else bb
+        if body >= n:
+            continue
+        for r in range(6):
+            i = 6 * e + r
+            acc = 0.0
             for j in range(12):
-                CB[r, j] = C[r, 0] * B[0, j] + C[r, 1] * B[1, j] + C[r, 2] * B[2, j]
-        for e in range(2):
-            body = spring_bodies[s, e]
-            if body >= n:
-                continue
-            for r in range(6):
-                i = 6 * e + r
-                acc = 0.0
-                for j in range(12):
-                    if scale[j] == 0.0:
-                        continue
-                    kij = B[0, i] * CB[0, j] + B[1, i] * CB[1, j] + B[2, i] * CB[2, j]
-                    acc += abs(kij) * scale[j] * x[spring_bodies[s, j // 6], j % 6]
-                out[body, r] += acc * scale[i]
+                if scale[j] == 0.0:
+                    continue
+                kij = B[0, i] * CB[0, j] + B[1, i] * CB[1, j] + B[2, i] * CB[2, j]
+                acc += abs(kij) * scale[j] * x[ba if j < 6 else bb, j % 6]
+            out[body, r] += acc * scale[i]
 
 
 @nb.njit(cache=True)
@@ -204,9 +257,6 @@ def scaled_row_sums(model, x=None, geometry=None):
     if x is not None:
         xx[:n] = x
     rot = quat_matrix_np(model.body_quat0)
-    if geometry is None:
-        geometry = (model.spring_arm_a, model.spring_arm_b, rot,
-                    quat_matrix_np(model.spring_frame0), model.spring_k)
     active = np.ones((n, 6))
     if model.plane:
         # x, y and the rotation about z: a prism's principal axis along z
@@ -214,9 +264,15 @@ def scaled_row_sums(model, x=None, geometry=None):
         # R has the largest z component
         active[:, 2:] = 0.0
         active[np.arange(n), 3 + np.argmax(np.abs(rot[:n, 2, :]), axis=1)] = 1.0
-    arm_a, arm_b, rot_s, frames, k = geometry
-    _scaled_row_sums(model.spring_bodies, arm_a, arm_b, rot_s, frames, k,
-                     model.body_mass, model.body_inertia, active, xx, out)
+    if geometry is None:
+        _face_row_sums((model.spring_bodies, model.spring_arm_a, model.spring_arm_b,
+                        model.face_frame0, model.face_k, model.spring_slot, model.spring_area,
+                        model.group_ptr, model.phase_ptr),
+                       (rot, model.body_mass, model.body_inertia), active, xx, out)
+    else:
+        arm_a, arm_b, rot_s, frames, k = geometry
+        _scaled_row_sums(model.spring_bodies, arm_a, arm_b, rot_s, frames, k,
+                         model.body_mass, model.body_inertia, active, xx, out)
     if model.poisson_on:
         s = np.zeros((n, 6))
         s[:, :3] = 1.0 / np.sqrt(model.body_mass)[:, None]
