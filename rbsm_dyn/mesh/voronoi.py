@@ -389,6 +389,31 @@ def _order_in_segments(key, cnt):
 
 
 def voronoi_cells(seeds, size, box) -> Mesh:
+    """Voronoi cells of ``seeds`` (inside ``box``), for cells that are
+    clipped to a solid in the box afterwards (mesh/clip.py): built cell by
+    cell and clipped to the box (mesh/voronoi_cell.py; the box has a margin
+    about the solid, so its sides lie outside it), their boundary faces
+    bface_side 0 with their outward normals.  The Mesh's box is a frame 4
+    box diagonals about the box's centre (clip_to_solid's tolerances scale
+    with it).  If the cells do not fill the box, _frame_cells: one qhull
+    run on the seeds and 26 frame points."""
+    seeds = np.asarray(seeds, dtype=np.float64)
+    box = check_box(box)
+    c = box.mean(axis=0)
+    d = float(np.linalg.norm(box[1] - box[0]))
+    big = np.array([c - 4.0 * d, c + 4.0 * d])
+    from .voronoi_cell import box_voronoi_mesh
+    try:
+        mesh = box_voronoi_mesh(seeds, box, size)
+    except RuntimeError:        # a cell beyond the builder's capacities
+        mesh = None
+    if mesh is not None and _tiles(mesh, box):
+        import dataclasses
+        return dataclasses.replace(mesh, box=big, bface_side=np.zeros_like(mesh.bface_side))
+    return _frame_cells(seeds, size, box)
+
+
+def _frame_cells(seeds, size, box) -> Mesh:
     """Voronoi cells of ``seeds`` (inside ``box``), closed far outside it:
     26 frame points at 4 box diagonals from its centre (the directions of a
     cube's corners, edges and faces) bound every cell, and a face between a
