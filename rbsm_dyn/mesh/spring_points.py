@@ -298,7 +298,7 @@ def _convex_points(vertex_ptr, vertex_xyz, normal, rule):
     return None
 
 
-@nb.njit(cache=True, nogil=True, parallel=True, error_model="numpy")
+@nb.njit(cache=True, nogil=True, error_model="numpy")
 def _fan_points(ptr, xyz, normal, c, moment, point, weight, face):
     """Rules "centroid" and "moment" (moment: True) on convex faces, one
     point per fan triangle (c, v_k, v_k+1) into point/weight/face (rows of
@@ -307,7 +307,7 @@ def _fan_points(ptr, xyz, normal, c, moment, point, weight, face):
     area: a non-convex face, for the vectorised path's ear clipping."""
     F = len(ptr) - 1
     ok = np.ones(F, dtype=np.bool_)
-    for f in nb.prange(F):
+    for f in range(F):
         a0, a1 = ptr[f], ptr[f + 1]
         n0, n1, n2 = normal[f, 0], normal[f, 1], normal[f, 2]
         # e1 = n × (x̂ or ŷ) normalised, e2 = n × e1

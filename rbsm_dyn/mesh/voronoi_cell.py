@@ -239,32 +239,42 @@ def _one_cell(p, seeds, nbr, nd2, lo, hi, eps, vx, fv, fn, ftag, w):
     return nv, nf, 1
 
 
-@nb.njit(parallel=True, **JIT)
-def build_cells(cells, seeds, nbr, nd2, box, eps, nt, out, status):
-    """Cells ``cells`` (each row of nbr/nd2 its neighbours) into the
+@nb.njit(**JIT)
+def build_cells(cells, seeds, nbr, nd2, box, eps, i0, i1, out, status):
+    """Cells cells[i0:i1] (each row of nbr/nd2 its neighbours) into the
     fixed-capacity rows out_*[i] (i the position in ``cells``); status[i]
-    as _one_cell's.  Threads take contiguous blocks of cells; each has its
-    own work arrays (nt blocks: the thread count).  box = (lo, hi); out =
-    (out_nv, out_vx, out_nf, out_fn, out_ftag, out_fv)."""
+    as _one_cell's.  box = (lo, hi); out = (out_nv, out_vx, out_nf, out_fn,
+    out_ftag, out_fv).  Serial and without the GIL: cells_of_box runs a
+    range on each thread (a parallel loop here took 2 s more to compile)."""
     lo, hi = box
     out_nv, out_vx, out_nf, out_fn, out_ftag, out_fv = out
-    n = len(cells)
-    for t in nb.prange(nt):
-        s = np.empty(MV)
-        keep = np.empty(MV, dtype=np.int64)
-        tmp = np.empty(MFV * 2, dtype=np.int64)
-        ea = np.empty(MV, dtype=np.int64)
-        eb = np.empty(MV, dtype=np.int64)
-        ev = np.empty(MV, dtype=np.int64)
-        cap = np.empty(MV, dtype=np.int64)
-        ang = np.empty(MV)
-        w = (s, keep, tmp, ea, eb, ev, cap, ang)
-        for i in range(t * n // nt, (t + 1) * n // nt):
-            nv, nf, st = _one_cell(cells[i], seeds, nbr[i], nd2[i], lo, hi, eps, out_vx[i],
-                                   out_fv[i], out_fn[i], out_ftag[i], w)
-            out_nv[i] = nv
-            out_nf[i] = nf
-            status[i] = st
+    s = np.empty(MV)
+    keep = np.empty(MV, dtype=np.int64)
+    tmp = np.empty(MFV * 2, dtype=np.int64)
+    ea = np.empty(MV, dtype=np.int64)
+    eb = np.empty(MV, dtype=np.int64)
+    ev = np.empty(MV, dtype=np.int64)
+    cap = np.empty(MV, dtype=np.int64)
+    ang = np.empty(MV)
+    w = (s, keep, tmp, ea, eb, ev, cap, ang)
+    for i in range(i0, i1):
+        nv, nf, st = _one_cell(cells[i], seeds, nbr[i], nd2[i], lo, hi, eps, out_vx[i],
+                               out_fv[i], out_fn[i], out_ftag[i], w)
+        out_nv[i] = nv
+        out_nf[i] = nf
+        status[i] = st
+
+
+def _on_threads(fn, n, nt, args):
+    """fn(*args(i0, i1)) over [0, n) cut into nt contiguous ranges [i0, i1), one
+    per thread (fn a Numba function without the GIL): the ranges' results
+    do not depend on nt."""
+    if nt <= 1 or n < 2 * nt:
+        fn(*args(0, n))
+        return
+    from concurrent.futures import ThreadPoolExecutor
+    with ThreadPoolExecutor(nt) as ex:
+        list(ex.map(lambda t: fn(*args(t * n // nt, (t + 1) * n // nt)), range(nt)))
 
 
 @nb.njit(**JIT)
@@ -355,8 +365,9 @@ def cells_of_box(seeds, box, size, chunk=4096, k0=64):
             nd2 = np.ascontiguousarray(d * d)
             nbr = np.ascontiguousarray(np.where(j >= N, -1, j), dtype=np.int64)
             o = tuple(a[:m] for a in out)
-            build_cells(cells, seeds, nbr, nd2, (lo, hi), eps, nb.get_num_threads(), o,
-                        status[:m])
+            _on_threads(build_cells, m, nb.get_num_threads(),
+                        lambda i0, i1: (cells, seeds, nbr, nd2, (lo, hi), eps, i0, i1, o,
+                                        status[:m]))
             st = status[:m]
             if np.any(st == 2):
                 raise RuntimeError("a Voronoi cell has more faces or vertices than the "
@@ -425,12 +436,12 @@ def _place(cs, nv, npoly, vx, ptr, vid, tag, cvp, cpp, cep, vertices, plen, poly
         q += npoly[i]
 
 
-@nb.njit(parallel=True, **JIT)
+@nb.njit(**JIT)
 def _polygons(cpp, poly_ptr, poly_vertex, tag, vertices, seeds, normal, area, centroid):
     """Each cell's polygons: the unit normal (to the neighbour's seed, or the
     box side's), area and area centroid (the fan from the vertex mean, as
     spring_points._polygon_properties sums it)."""
-    for c in nb.prange(len(cpp) - 1):
+    for c in range(len(cpp) - 1):
         for p in range(cpp[c], cpp[c + 1]):
             t = tag[p]
             if t >= 0:

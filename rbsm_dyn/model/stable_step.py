@@ -76,49 +76,47 @@ def _scaled_row_sums(spring_bodies, spring_arm_a, spring_arm_b, rot, frames, spr
                      C, rot, body_mass, body_inertia, active, x, out, B, CB, scale)
 
 
-@nb.njit(cache=True, parallel=True)
-def _face_row_sums(springs, bodies, active, x, out):
-    """_scaled_row_sums on the model's own tables: each spring's C from its
-    face's frame quaternion and stiffness per area (no per-spring frames or
-    stiffnesses: 96 B a spring point), the groups of a phase in parallel
-    (partition.py: no two share a body, and each body's sums come in the
-    serial order, so the result is the serial one bit for bit).  springs =
-    (spring_bodies, arm_a, arm_b, face_frame0, face_k, spring_slot,
-    spring_area, group_ptr, phase_ptr); bodies = (rot, body_mass,
-    body_inertia)."""
+@nb.njit(cache=True, nogil=True)
+def _face_row_sums(springs, bodies, active, x, out, g0, g1):
+    """_scaled_row_sums on the model's own tables, over the schedule's
+    groups g0 … g1 − 1: each spring's C from its face's frame quaternion
+    and stiffness per area (no per-spring frames or stiffnesses: 96 B a
+    spring point).  springs = (spring_bodies, arm_a, arm_b, face_frame0,
+    face_k, spring_slot, spring_area, group_ptr, phase_ptr); bodies = (rot,
+    body_mass, body_inertia).  Without the GIL: scaled_row_sums runs the
+    groups of a phase on threads (partition.py: no two share a body)."""
     (spring_bodies, arm_a, arm_b, face_frame0, face_k, spring_slot, spring_area, group_ptr,
      phase_ptr) = springs
     rot, body_mass, body_inertia = bodies
-    for ph in range(len(phase_ptr) - 1):
-        for g in nb.prange(phase_ptr[ph], phase_ptr[ph + 1]):
-            B = np.zeros((3, 12))
-            C = np.zeros((3, 3))
-            CB = np.zeros((3, 12))
-            scale = np.zeros(12)
-            F = np.empty((3, 3))
-            for s in range(group_ptr[g], group_ptr[g + 1]):
-                f = spring_slot[s]
-                # the face's frame (quat_matrix_np's formula) and k = k/A × A (Model.spring_k)
-                w, qx, qy, qz = (face_frame0[f, 0], face_frame0[f, 1], face_frame0[f, 2],
-                                 face_frame0[f, 3])
-                F[0, 0] = 1.0 - 2.0 * (qy * qy + qz * qz)
-                F[0, 1] = 2.0 * (qx * qy - w * qz)
-                F[0, 2] = 2.0 * (qx * qz + w * qy)
-                F[1, 0] = 2.0 * (qx * qy + w * qz)
-                F[1, 1] = 1.0 - 2.0 * (qx * qx + qz * qz)
-                F[1, 2] = 2.0 * (qy * qz - w * qx)
-                F[2, 0] = 2.0 * (qx * qz - w * qy)
-                F[2, 1] = 2.0 * (qy * qz + w * qx)
-                F[2, 2] = 1.0 - 2.0 * (qx * qx + qy * qy)
-                k0 = face_k[f, 0] * spring_area[s]
-                k1 = face_k[f, 1] * spring_area[s]
-                k2 = face_k[f, 2] * spring_area[s]
-                for r in range(3):
-                    for c in range(3):
-                        C[r, c] = (F[r, 0] * k0 * F[c, 0] + F[r, 1] * k1 * F[c, 1]
-                                   + F[r, 2] * k2 * F[c, 2])
-                _spring_rows(spring_bodies[s, 0], spring_bodies[s, 1], arm_a[s], arm_b[s], C,
-                             rot, body_mass, body_inertia, active, x, out, B, CB, scale)
+    for g in range(g0, g1):
+        B = np.zeros((3, 12))
+        C = np.zeros((3, 3))
+        CB = np.zeros((3, 12))
+        scale = np.zeros(12)
+        F = np.empty((3, 3))
+        for s in range(group_ptr[g], group_ptr[g + 1]):
+            f = spring_slot[s]
+            # the face's frame (quat_matrix_np's formula) and k = k/A × A (Model.spring_k)
+            w, qx, qy, qz = (face_frame0[f, 0], face_frame0[f, 1], face_frame0[f, 2],
+                             face_frame0[f, 3])
+            F[0, 0] = 1.0 - 2.0 * (qy * qy + qz * qz)
+            F[0, 1] = 2.0 * (qx * qy - w * qz)
+            F[0, 2] = 2.0 * (qx * qz + w * qy)
+            F[1, 0] = 2.0 * (qx * qy + w * qz)
+            F[1, 1] = 1.0 - 2.0 * (qx * qx + qz * qz)
+            F[1, 2] = 2.0 * (qy * qz - w * qx)
+            F[2, 0] = 2.0 * (qx * qz - w * qy)
+            F[2, 1] = 2.0 * (qy * qz + w * qx)
+            F[2, 2] = 1.0 - 2.0 * (qx * qx + qy * qy)
+            k0 = face_k[f, 0] * spring_area[s]
+            k1 = face_k[f, 1] * spring_area[s]
+            k2 = face_k[f, 2] * spring_area[s]
+            for r in range(3):
+                for c in range(3):
+                    C[r, c] = (F[r, 0] * k0 * F[c, 0] + F[r, 1] * k1 * F[c, 1]
+                               + F[r, 2] * k2 * F[c, 2])
+            _spring_rows(spring_bodies[s, 0], spring_bodies[s, 1], arm_a[s], arm_b[s], C,
+                         rot, body_mass, body_inertia, active, x, out, B, CB, scale)
 
 
 @nb.njit(inline="always", cache=True)
@@ -265,10 +263,22 @@ def scaled_row_sums(model, x=None, geometry=None):
         active[:, 2:] = 0.0
         active[np.arange(n), 3 + np.argmax(np.abs(rot[:n, 2, :]), axis=1)] = 1.0
     if geometry is None:
-        _face_row_sums((model.spring_bodies, model.spring_arm_a, model.spring_arm_b,
-                        model.face_frame0, model.face_k, model.spring_slot, model.spring_area,
-                        model.group_ptr, model.phase_ptr),
-                       (rot, model.body_mass, model.body_inertia), active, xx, out)
+        springs = (model.spring_bodies, model.spring_arm_a, model.spring_arm_b,
+                   model.face_frame0, model.face_k, model.spring_slot, model.spring_area,
+                   model.group_ptr, model.phase_ptr)
+        bodies = (rot, model.body_mass, model.body_inertia)
+        ph = model.phase_ptr
+        nt = nb.get_num_threads()
+        if nt <= 1 or model.n_springs < 100_000:
+            _face_row_sums(springs, bodies, active, xx, out, 0, int(ph[-1]))
+        else:
+            # the groups of a phase share no body: each body's sums come in
+            # the serial order, so the result is the serial one bit for bit
+            from concurrent.futures import ThreadPoolExecutor
+            with ThreadPoolExecutor(nt) as ex:
+                for p in range(len(ph) - 1):
+                    list(ex.map(lambda g: _face_row_sums(springs, bodies, active, xx, out, g,
+                                                         g + 1), range(ph[p], ph[p + 1])))
     else:
         arm_a, arm_b, rot_s, frames, k = geometry
         _scaled_row_sums(model.spring_bodies, arm_a, arm_b, rot_s, frames, k,
