@@ -1,5 +1,5 @@
 """The stable step of a deforming model (issue 30 item 6; solvers/explicit.py
-StepAdapter, model/stable_step.py _deformed_springs).
+StepAdapter, model/stable_step.py _face_row_sums).
 
 A spring's force acts at the midpoint m of its two material points
 (physics/springs.py deposit_b), so with a gap g its levers are l_a + g/2

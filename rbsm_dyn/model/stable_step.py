@@ -77,46 +77,106 @@ def _scaled_row_sums(spring_bodies, spring_arm_a, spring_arm_b, rot, frames, spr
 
 
 @nb.njit(cache=True, nogil=True)
-def _face_row_sums(springs, bodies, active, x, out, g0, g1):
+def _face_row_sums(springs, bodies, active, x, out, g0, g1, pose):
     """_scaled_row_sums on the model's own tables, over the schedule's
     groups g0 … g1 − 1: each spring's C from its face's frame quaternion
     and stiffness per area (no per-spring frames or stiffnesses: 96 B a
     spring point).  springs = (spring_bodies, arm_a, arm_b, face_frame0,
     face_k, spring_slot, spring_area, group_ptr, phase_ptr); bodies = (rot,
     body_mass, body_inertia).  Without the GIL: scaled_row_sums runs the
-    groups of a phase on threads (partition.py: no two share a body)."""
+    groups of a phase on threads (partition.py: no two share a body).
+
+    pose = (body_pos, body_dq, spring_kappa, spring_state), all empty for
+    the reference configuration, else the springs of that deformed state
+    (rot then the state's body_rot) as the stiffness sees them: each
+    spring's force acts at the midpoint m of its two material points
+    (physics/springs.py deposit_b), so its levers are m − x_a = l_a + g/2
+    and m − x_b = l_b − g/2 (g the world gap), given in each body's
+    principal axes; its frame the mid rotation of the pair's increments
+    applied to its reference frame (springs.gap_and_scaled_frame).  A
+    broken spring acts only in contact, at a normal gap of about 0: its g
+    is the tangential part (its slip); a parted one (spring_kappa = inf,
+    physics/inelastic.py) has no stiffness.  With a gap of 0.87 mm on
+    1.25 mm levers (cases/impulsive_beam.yaml at 25 mm deflection) the
+    exact stable step falls to 0.64 of the undeformed one, which this
+    geometry reproduces to 3 digits (tests/test_step_adapt.py).  Spring
+    by spring, no per-spring arrays (they were 144 B a spring point)."""
     (spring_bodies, arm_a, arm_b, face_frame0, face_k, spring_slot, spring_area, group_ptr,
      phase_ptr) = springs
     rot, body_mass, body_inertia = bodies
+    body_pos, body_dq, spring_kappa, spring_state = pose
+    deformed = body_pos.shape[0] > 0
+    inelastic = spring_state.shape[0] > 0
     for g in range(g0, g1):
         B = np.zeros((3, 12))
         C = np.zeros((3, 3))
         CB = np.zeros((3, 12))
         scale = np.zeros(12)
         F = np.empty((3, 3))
+        la = np.empty(3)
+        lb = np.empty(3)
+        gap = np.empty(3)
         for s in range(group_ptr[g], group_ptr[g + 1]):
             f = spring_slot[s]
-            # the face's frame (quat_matrix_np's formula) and k = k/A × A (Model.spring_k)
+            a = spring_bodies[s, 0]
+            b = spring_bodies[s, 1]
+            # the face's frame (quat_matrix_np's formula) and k = k/A × A
+            # (Model.spring_k); deformed: turned by the mid rotation of the
+            # pair's increments and normalised (the docstring's pose)
             w, qx, qy, qz = (face_frame0[f, 0], face_frame0[f, 1], face_frame0[f, 2],
                              face_frame0[f, 3])
-            F[0, 0] = 1.0 - 2.0 * (qy * qy + qz * qz)
-            F[0, 1] = 2.0 * (qx * qy - w * qz)
-            F[0, 2] = 2.0 * (qx * qz + w * qy)
-            F[1, 0] = 2.0 * (qx * qy + w * qz)
-            F[1, 1] = 1.0 - 2.0 * (qx * qx + qz * qz)
-            F[1, 2] = 2.0 * (qy * qz - w * qx)
-            F[2, 0] = 2.0 * (qx * qz - w * qy)
-            F[2, 1] = 2.0 * (qy * qz + w * qx)
-            F[2, 2] = 1.0 - 2.0 * (qx * qx + qy * qy)
+            n2 = 1.0
+            if deformed:
+                qa = body_dq[a]
+                qb = body_dq[b]
+                sg = (1.0 if qa[0] * qb[0] + qa[1] * qb[1] + qa[2] * qb[2] + qa[3] * qb[3] >= 0.0
+                      else -1.0)
+                w, qx, qy, qz = quat_mul(qa[0] + sg * qb[0], qa[1] + sg * qb[1],
+                                         qa[2] + sg * qb[2], qa[3] + sg * qb[3], w, qx, qy, qz)
+                n2 = w * w + qx * qx + qy * qy + qz * qz
+            F[0, 0] = 1.0 - 2.0 * (qy * qy + qz * qz) / n2
+            F[0, 1] = 2.0 * (qx * qy - w * qz) / n2
+            F[0, 2] = 2.0 * (qx * qz + w * qy) / n2
+            F[1, 0] = 2.0 * (qx * qy + w * qz) / n2
+            F[1, 1] = 1.0 - 2.0 * (qx * qx + qz * qz) / n2
+            F[1, 2] = 2.0 * (qy * qz - w * qx) / n2
+            F[2, 0] = 2.0 * (qx * qz - w * qy) / n2
+            F[2, 1] = 2.0 * (qy * qz + w * qx) / n2
+            F[2, 2] = 1.0 - 2.0 * (qx * qx + qy * qy) / n2
             k0 = face_k[f, 0] * spring_area[s]
             k1 = face_k[f, 1] * spring_area[s]
             k2 = face_k[f, 2] * spring_area[s]
+            if deformed:
+                Ra = rot[a]
+                Rb = rot[b]
+                for r in range(3):
+                    pa = Ra[r, 0] * arm_a[s, 0] + Ra[r, 1] * arm_a[s, 1] + Ra[r, 2] * arm_a[s, 2]
+                    pb = Rb[r, 0] * arm_b[s, 0] + Rb[r, 1] * arm_b[s, 1] + Rb[r, 2] * arm_b[s, 2]
+                    gap[r] = 0.5 * ((body_pos[b, r] + pb) - (body_pos[a, r] + pa))
+                live = 1.0
+                if inelastic and spring_state[s] >= 2:          # BROKEN, CONTACT
+                    gn = gap[0] * F[0, 0] + gap[1] * F[1, 0] + gap[2] * F[2, 0]
+                    for r in range(3):
+                        gap[r] -= gn * F[r, 0]
+                    if np.isinf(spring_kappa[s]):
+                        live = 0.0
+                for c in range(3):
+                    la[c] = arm_a[s, c] + Ra[0, c] * gap[0] + Ra[1, c] * gap[1] + Ra[2, c] * gap[2]
+                    lb[c] = arm_b[s, c] - (Rb[0, c] * gap[0] + Rb[1, c] * gap[1]
+                                           + Rb[2, c] * gap[2])
+                k0 *= live
+                k1 *= live
+                k2 *= live
+            else:
+                for c in range(3):
+                    la[c] = arm_a[s, c]
+                    lb[c] = arm_b[s, c]
             for r in range(3):
                 for c in range(3):
                     C[r, c] = (F[r, 0] * k0 * F[c, 0] + F[r, 1] * k1 * F[c, 1]
                                + F[r, 2] * k2 * F[c, 2])
-            _spring_rows(spring_bodies[s, 0], spring_bodies[s, 1], arm_a[s], arm_b[s], C,
-                         rot, body_mass, body_inertia, active, x, out, B, CB, scale)
+            _spring_rows(a, b, la, lb, C, rot, body_mass, body_inertia, active, x, out, B, CB,
+                         scale)
 
 
 @nb.njit(inline="always", cache=True)
@@ -165,89 +225,13 @@ def _spring_rows(ba, bb, arm_a, arm_b, C, rot, body_mass, body_inertia, active, 
             out[body, r] += acc * scale[i]
 
 
-@nb.njit(cache=True)
-def _deformed_springs(spring_in, pose, out):
-    """The springs of a deformed state as the stiffness sees them (spring_in:
-    the model's spring_bodies, arms, frames, stiffnesses and the state's
-    spring_kappa, spring_state; pose: body_pos, body_rot, body_dq; out:
-    levers a, b, frames, stiffnesses): each
-    spring's force acts at the midpoint m of its two material points
-    (physics/springs.py deposit_b), so its levers are m − x_a = l_a + g/2
-    and m − x_b = l_b − g/2 (g the world gap), given here in each body's
-    principal axes; its frame the mid rotation of the pair's increments
-    applied to its reference frame (springs.gap_and_scaled_frame).  A
-    broken spring acts only in contact, at a normal gap of about 0: its g
-    is the tangential part (its slip); a parted one (spring_kappa = inf,
-    physics/inelastic.py) has no stiffness.  With a gap of 0.87 mm on
-    1.25 mm levers (cases/impulsive_beam.yaml at 25 mm deflection) the
-    exact stable step falls to 0.64 of the undeformed one, which this
-    geometry reproduces to 3 digits (tests/test_step_adapt.py)."""
-    (spring_bodies, spring_arm_a, spring_arm_b, spring_frame0, spring_k, spring_kappa,
-     spring_state) = spring_in
-    body_pos, body_rot, body_dq = pose
-    arm_a, arm_b, frames, k = out
-    inelastic = spring_state.shape[0] > 0
-    for s in range(spring_bodies.shape[0]):
-        a = spring_bodies[s, 0]
-        b = spring_bodies[s, 1]
-        Ra = body_rot[a]
-        Rb = body_rot[b]
-        qa = body_dq[a]
-        qb = body_dq[b]
-        sg = 1.0 if qa[0] * qb[0] + qa[1] * qb[1] + qa[2] * qb[2] + qa[3] * qb[3] >= 0.0 else -1.0
-        q0, q1, q2, q3 = qa[0] + sg * qb[0], qa[1] + sg * qb[1], qa[2] + sg * qb[2], qa[3] + sg * qb[3]
-        f = spring_frame0[s]
-        w, x, y, z = quat_mul(q0, q1, q2, q3, f[0], f[1], f[2], f[3])
-        n2 = w * w + x * x + y * y + z * z
-        frames[s, 0, 0] = 1.0 - 2.0 * (y * y + z * z) / n2
-        frames[s, 0, 1] = 2.0 * (x * y - w * z) / n2
-        frames[s, 0, 2] = 2.0 * (x * z + w * y) / n2
-        frames[s, 1, 0] = 2.0 * (x * y + w * z) / n2
-        frames[s, 1, 1] = 1.0 - 2.0 * (x * x + z * z) / n2
-        frames[s, 1, 2] = 2.0 * (y * z - w * x) / n2
-        frames[s, 2, 0] = 2.0 * (x * z - w * y) / n2
-        frames[s, 2, 1] = 2.0 * (y * z + w * x) / n2
-        frames[s, 2, 2] = 1.0 - 2.0 * (x * x + y * y) / n2
-        g = np.empty(3)
-        for r in range(3):
-            la = Ra[r, 0] * spring_arm_a[s, 0] + Ra[r, 1] * spring_arm_a[s, 1] + Ra[r, 2] * spring_arm_a[s, 2]
-            lb = Rb[r, 0] * spring_arm_b[s, 0] + Rb[r, 1] * spring_arm_b[s, 1] + Rb[r, 2] * spring_arm_b[s, 2]
-            g[r] = 0.5 * ((body_pos[b, r] + lb) - (body_pos[a, r] + la))
-        live = 1.0
-        if inelastic and spring_state[s] >= 2:          # BROKEN, CONTACT (physics/laws)
-            gn = g[0] * frames[s, 0, 0] + g[1] * frames[s, 1, 0] + g[2] * frames[s, 2, 0]
-            for r in range(3):
-                g[r] -= gn * frames[s, r, 0]
-            if np.isinf(spring_kappa[s]):
-                live = 0.0
-        for c in range(3):
-            arm_a[s, c] = spring_arm_a[s, c] + Ra[0, c] * g[0] + Ra[1, c] * g[1] + Ra[2, c] * g[2]
-            arm_b[s, c] = spring_arm_b[s, c] - (Rb[0, c] * g[0] + Rb[1, c] * g[1] + Rb[2, c] * g[2])
-            k[s, c] = live * spring_k[s, c]
-
-
-def deformed_geometry(model, state):
-    """(levers a, levers b, body rotations, frames, stiffnesses) of the
-    springs of a deformed state (_deformed_springs), for scaled_row_sums."""
-    ns = model.n_springs
-    arm_a, arm_b, frames, k = (np.empty((ns, 3)), np.empty((ns, 3)), np.empty((ns, 3, 3)),
-                               np.empty((ns, 3)))
-    kappa = state.spring_kappa if state.spring_kappa is not None else np.zeros(0)
-    sstate = (state.spring_state if state.spring_state is not None
-              else np.zeros(0, dtype=np.int8))
-    _deformed_springs((model.spring_bodies, model.spring_arm_a, model.spring_arm_b,
-                       model.spring_frame0, model.spring_k, kappa, sstate),
-                      (state.body_pos, state.body_rot, state.body_dq), (arm_a, arm_b, frames, k))
-    return arm_a, arm_b, state.body_rot, frames, k
-
-
-def scaled_row_sums(model, x=None, geometry=None):
+def scaled_row_sums(model, x=None, state=None):
     """P x (N, 6) [1/s²] for the entrywise |M^-½ K M^-½| bound P (see
     Model.stable_dt); x = 1 (default): the Gershgorin row sums.  The
     auxiliary stress of the Poisson correction adds its bound
     |B|ᵀ diag(λV) |B| (physics/poisson.py) on the translations.
-    `geometry`: the springs of a deformed state (deformed_geometry), else
-    those of the reference configuration."""
+    `state`: the springs of that deformed state (_face_row_sums' pose),
+    else those of the reference configuration."""
     from ..physics.rotation import quat_matrix_np
     n = model.n_bodies
     out = np.zeros((n, 6))
@@ -262,27 +246,31 @@ def scaled_row_sums(model, x=None, geometry=None):
         # R has the largest z component
         active[:, 2:] = 0.0
         active[np.arange(n), 3 + np.argmax(np.abs(rot[:n, 2, :]), axis=1)] = 1.0
-    if geometry is None:
-        springs = (model.spring_bodies, model.spring_arm_a, model.spring_arm_b,
-                   model.face_frame0, model.face_k, model.spring_slot, model.spring_area,
-                   model.group_ptr, model.phase_ptr)
-        bodies = (rot, model.body_mass, model.body_inertia)
-        ph = model.phase_ptr
-        nt = nb.get_num_threads()
-        if nt <= 1 or model.n_springs < 100_000:
-            _face_row_sums(springs, bodies, active, xx, out, 0, int(ph[-1]))
-        else:
-            # the groups of a phase share no body: each body's sums come in
-            # the serial order, so the result is the serial one bit for bit
-            from concurrent.futures import ThreadPoolExecutor
-            with ThreadPoolExecutor(nt) as ex:
-                for p in range(len(ph) - 1):
-                    list(ex.map(lambda g: _face_row_sums(springs, bodies, active, xx, out, g,
-                                                         g + 1), range(ph[p], ph[p + 1])))
+    springs = (model.spring_bodies, model.spring_arm_a, model.spring_arm_b,
+               model.face_frame0, model.face_k, model.spring_slot, model.spring_area,
+               model.group_ptr, model.phase_ptr)
+    if state is None:
+        none = np.zeros((0, 4))
+        pose = (none[:, :3], none, np.zeros(0), np.zeros(0, dtype=np.int8))
     else:
-        arm_a, arm_b, rot_s, frames, k = geometry
-        _scaled_row_sums(model.spring_bodies, arm_a, arm_b, rot_s, frames, k,
-                         model.body_mass, model.body_inertia, active, xx, out)
+        rot = state.body_rot
+        pose = (state.body_pos, state.body_dq,
+                state.spring_kappa if state.spring_kappa is not None else np.zeros(0),
+                state.spring_state if state.spring_state is not None
+                else np.zeros(0, dtype=np.int8))
+    bodies = (rot, model.body_mass, model.body_inertia)
+    ph = model.phase_ptr
+    nt = nb.get_num_threads()
+    if nt <= 1 or model.n_springs < 100_000:
+        _face_row_sums(springs, bodies, active, xx, out, 0, int(ph[-1]), pose)
+    else:
+        # the groups of a phase share no body: each body's sums come in the
+        # serial order, so the result is the serial one bit for bit
+        from concurrent.futures import ThreadPoolExecutor
+        with ThreadPoolExecutor(nt) as ex:
+            for p in range(len(ph) - 1):
+                list(ex.map(lambda g: _face_row_sums(springs, bodies, active, xx, out, g, g + 1,
+                                                     pose), range(ph[p], ph[p + 1])))
     if model.poisson_on:
         s = np.zeros((n, 6))
         s[:, :3] = 1.0 / np.sqrt(model.body_mass)[:, None]
@@ -301,8 +289,7 @@ def omega_max_bound(model, sweeps=STABLE_DT_SWEEPS, state=None):
     Horn & Johnson, Matrix Analysis, 8.1.26).  x = 1 is Gershgorin; a few
     power sweeps x ← P x tighten the bound on irregular meshes, where one
     row stands out, and it stays safe for any x > 0."""
-    geometry = None if state is None else deformed_geometry(model, state)
-    px = scaled_row_sums(model, geometry=geometry)
+    px = scaled_row_sums(model, state=state)
     bound = float(px.max(initial=0.0))
     if bound <= 0.0:
         return 0.0
@@ -310,6 +297,6 @@ def omega_max_bound(model, sweeps=STABLE_DT_SWEEPS, state=None):
     for _ in range(sweeps):
         # keep x strictly positive (a DOF with no springs has (P x)_i = 0)
         x = px / bound + 1e-3
-        px = scaled_row_sums(model, x, geometry=geometry)
+        px = scaled_row_sums(model, x, state=state)
         bound = min(bound, float((px / x).max()))
     return bound

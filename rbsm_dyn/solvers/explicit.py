@@ -426,7 +426,7 @@ def _schedule(state, end_time, interval, max_steps):
 def adapts(model):
     """Whether a run re-bounds its stable step as it goes: a model with
     yield, whose plastic gaps lengthen the springs' levers
-    (model/stable_step.py _deformed_springs).  Not a model that only
+    (model/stable_step.py _face_row_sums).  Not a model that only
     breaks: a crack's gap is open or slides in contact, and every shipped
     fracture case ran at dt_safety 1.0 with a fixed step
     (benchmarks/results/stability.md (e)), so it pays nothing for it; not
