@@ -20,9 +20,9 @@ RUN_KERNELS = {
     "build": (("model.springs", "_arms"), ("mesh.polyhedron", "_tet_moments")),
     "dynamic": (("physics.integrate", "run_dynamic"), ("physics.integrate",
                                                         "synchronized_momenta"),
-                ("model.stable_step", "_scaled_row_sums")),
+                ("model.stable_step", "_face_row_sums")),
     "plane": (("physics.plane", "run_plane"), ("physics.integrate", "synchronized_momenta"),
-              ("model.stable_step", "_scaled_row_sums")),
+              ("model.stable_step", "_face_row_sums")),
     "relaxation": (("physics.relax", "run_relax"),),
     # on top of a 3D dynamic run's: springs that yield, break or touch
     # (materials' yield or rupture, cuts, interfaces) and contact between

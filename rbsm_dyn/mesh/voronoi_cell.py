@@ -57,10 +57,14 @@ def _start(lo, hi, vx, fv, fn, ftag):
 
 
 @nb.njit(**JIT)
-def _cut(vx, nv, fv, fn, ftag, nf, n0, n1, n2, d, eps, tag, s, keep, tmp, ea, eb, ev, cap,
-         ang):
-    """Cut the cell (vx[:nv], faces fv/fn/ftag[:nf]) by n·x ≤ d (n unit);
-    returns (nv, nf, cut?) or (−1, −1, 0) when a capacity is exceeded."""
+def _cut(cell, nv, nf, plane, eps, tag, w):
+    """Cut the cell (cell = (vx, fv, fn, ftag): vertices vx[:nv], faces
+    fv/fn/ftag[:nf]) by n·x ≤ d (plane = (n0, n1, n2, d), n unit; w the
+    work arrays); returns (nv, nf, cut?) or (−1, −1, 0) when a capacity is
+    exceeded."""
+    vx, fv, fn, ftag = cell
+    n0, n1, n2, d = plane
+    s, keep, tmp, ea, eb, ev, cap, ang = w
     nout = 0
     for i in range(nv):
         s[i] = vx[i, 0] * n0 + vx[i, 1] * n1 + vx[i, 2] * n2 - d
@@ -202,7 +206,6 @@ def _one_cell(p, seeds, nbr, nd2, lo, hi, eps, vx, fv, fn, ftag, w):
     −1 padded, squared distances nd2); returns (nv, nf, status): status 0
     done, 1 the neighbours ran out before the cell was closed, 2 a capacity
     exceeded."""
-    s, keep, tmp, ea, eb, ev, cap, ang = w
     nv, nf = _start(lo, hi, vx, fv, fn, ftag)
     px, py, pz = seeds[p, 0], seeds[p, 1], seeds[p, 2]
     r2 = 0.0
@@ -225,8 +228,7 @@ def _one_cell(p, seeds, nbr, nd2, lo, hi, eps, vx, fv, fn, ftag, w):
         n2 /= L
         # the bisector through the midpoint, n·x = n·(p + q)/2
         d = 0.5 * (n0 * (seeds[q, 0] + px) + n1 * (seeds[q, 1] + py) + n2 * (seeds[q, 2] + pz))
-        nv, nf, cut = _cut(vx, nv, fv, fn, ftag, nf, n0, n1, n2, d, eps, q, s, keep, tmp,
-                           ea, eb, ev, cap, ang)
+        nv, nf, cut = _cut((vx, fv, fn, ftag), nv, nf, (n0, n1, n2, d), eps, q, w)
         if nv < 0:
             return 0, 0, 2
         if cut:
@@ -296,12 +298,15 @@ def _count(sel, out_nv, out_nf, out_fn):
 
 
 @nb.njit(**JIT)
-def _compact(cells, sel, out_nv, out_vx, out_nf, out_fn, out_ftag, out_fv, v0, p0, e0, vertices,
-             poly_ptr, poly_vertex, poly_tag, key):
-    """Copy the built cells into the mesh's CSR arrays from rows v0, p0,
-    e0 on (the cells sel of this chunk); each cell's polygons ordered as
-    Mesh has them: faces to higher cells (by cell), to lower cells (by
-    cell), then box sides (by side)."""
+def _compact(cells, sel, out, dest, key):
+    """Copy the built cells sel of this chunk (out: build_cells' rows) into
+    the chunk's CSR arrays dest = (vertices, poly_ptr, poly_vertex,
+    poly_tag); each cell's polygons ordered as Mesh has them: faces to
+    higher cells (by cell), to lower cells (by cell), then box sides (by
+    side)."""
+    out_nv, out_vx, out_nf, out_fn, out_ftag, out_fv = out
+    vertices, poly_ptr, poly_vertex, poly_tag = dest
+    v0 = p0 = e0 = 0
     for i in sel:
         c = cells[i]
         nf = out_nf[i]
@@ -382,7 +387,7 @@ def cells_of_box(seeds, box, size, chunk=4096, k0=64):
             poly_ptr = np.zeros(int(npoly.sum()) + 1, dtype=np.int64)
             poly_vertex = np.empty(int(nent.sum()), dtype=np.int64)
             poly_tag = np.empty(int(npoly.sum()), dtype=np.int64)
-            _compact(cells, sel, *o, 0, 0, 0, vertices, poly_ptr, poly_vertex, poly_tag, key)
+            _compact(cells, sel, o, (vertices, poly_ptr, poly_vertex, poly_tag), key)
             parts.append((cells[sel], nv, npoly, nent, vertices, poly_ptr, poly_vertex,
                           poly_tag))
         pending = np.concatenate(nxt)
@@ -404,17 +409,20 @@ def _join(parts, N):
     poly_vertex = np.empty(cep[-1], dtype=np.int64)
     poly_tag = np.empty(cpp[-1], dtype=np.int64)
     for (cs, a, b, c, vx, ptr, vid, tag) in parts:
-        _place(cs, a, b, vx, ptr, vid, tag, cvp, cpp, cep, vertices, poly_ptr, poly_vertex,
-               poly_tag)
+        _place(cs, a, b, (vx, ptr, vid, tag), (cvp, cpp, cep),
+               (vertices, poly_ptr, poly_vertex, poly_tag))
     np.cumsum(poly_ptr, out=poly_ptr)
     return vertices, cvp, poly_ptr, poly_vertex, cpp, poly_tag
 
 
 @nb.njit(**JIT)
-def _place(cs, nv, npoly, vx, ptr, vid, tag, cvp, cpp, cep, vertices, plen, poly_vertex,
-           poly_tag):
-    """Copy one chunk's cells cs (their rows in order in vx, ptr/vid, tag)
-    to their places cvp/cpp/cep[c]; plen[p + 1] the length of polygon p."""
+def _place(cs, nv, npoly, src, at, dest):
+    """Copy one chunk's cells cs (src = (vx, ptr, vid, tag): their rows in
+    order) to their places at = (cvp, cpp, cep)[c] in dest = (vertices,
+    plen, poly_vertex, poly_tag); plen[p + 1] the length of polygon p."""
+    vx, ptr, vid, tag = src
+    cvp, cpp, cep = at
+    vertices, plen, poly_vertex, poly_tag = dest
     v = 0
     q = 0
     for i in range(len(cs)):

@@ -77,12 +77,12 @@ def _scaled_row_sums(spring_bodies, spring_arm_a, spring_arm_b, rot, frames, spr
 
 
 @nb.njit(cache=True, nogil=True)
-def _face_row_sums(springs, bodies, active, x, out, g0, g1, pose):
+def _face_row_sums(tables, inertia, active, x, out, g0, g1, pose):
     """_scaled_row_sums on the model's own tables, over the schedule's
     groups g0 … g1 − 1: each spring's C from its face's frame quaternion
     and stiffness per area (no per-spring frames or stiffnesses: 96 B a
-    spring point).  springs = (spring_bodies, arm_a, arm_b, face_frame0,
-    face_k, spring_slot, spring_area, group_ptr, phase_ptr); bodies = (rot,
+    spring point).  tables = (spring_bodies, arm_a, arm_b, face_frame0,
+    face_k, spring_slot, spring_area, group_ptr, phase_ptr); inertia = (rot,
     body_mass, body_inertia).  Without the GIL: scaled_row_sums runs the
     groups of a phase on threads (partition.py: no two share a body).
 
@@ -102,8 +102,8 @@ def _face_row_sums(springs, bodies, active, x, out, g0, g1, pose):
     geometry reproduces to 3 digits (tests/test_step_adapt.py).  Spring
     by spring, no per-spring arrays (they were 144 B a spring point)."""
     (spring_bodies, arm_a, arm_b, face_frame0, face_k, spring_slot, spring_area, group_ptr,
-     phase_ptr) = springs
-    rot, body_mass, body_inertia = bodies
+     phase_ptr) = tables
+    rot, body_mass, body_inertia = inertia
     body_pos, body_dq, spring_kappa, spring_state = pose
     deformed = body_pos.shape[0] > 0
     inelastic = spring_state.shape[0] > 0
