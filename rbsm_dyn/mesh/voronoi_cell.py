@@ -24,7 +24,6 @@ import numpy as np
 
 from ._core import SIDES, Mesh, _gather
 from .polyhedron import cells_mass_properties
-from .spring_points import polygon_properties
 
 JIT = dict(cache=True, nogil=True, error_model="numpy")
 

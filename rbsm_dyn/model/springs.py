@@ -242,7 +242,7 @@ def _support(case, mesh, parts, body_part, laws, j, item, name, fix, sel):
     nrm_b = mesh.bface_normal[bf]
     h = np.einsum("ij,ij->i", mesh.bface_centroid[bf] - mesh.cell_centroid[cell], nrm_b)
     h = np.maximum(np.abs(h), _min_half_length(mesh.cell_volume[cell],
-                                               mesh.bface_area[bf]))   # as _half_lengths
+                                               mesh.bface_area[bf]))   # as _face_half_lengths
     kk = e0[cell] / h
     axis_of = np.argmax(np.abs(nrm_b), axis=1)
     aligned = np.abs(nrm_b[np.arange(len(bf)), axis_of]) > 1.0 - 1e-12
