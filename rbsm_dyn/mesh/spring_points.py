@@ -298,6 +298,22 @@ def _convex_points(vertex_ptr, vertex_xyz, normal, rule):
     return None
 
 
+@nb.njit(inline="always", cache=True)
+def plane_basis(n0, n1, n2):
+    """The in-plane basis of unit normal n as the vectorised rule takes it:
+    e1 = n × (x̂, or ŷ where |n_x| ≥ 0.9) normalised, e2 = n × e1 (so
+    e1 × e2 = n: angles about n grow counter-clockwise)."""
+    if abs(n0) < 0.9:
+        e10, e11, e12 = 0.0, n2, -n1
+    else:
+        e10, e11, e12 = -n2, 0.0, n0
+    r = np.sqrt(e10 * e10 + e11 * e11 + e12 * e12)
+    e10 /= r
+    e11 /= r
+    e12 /= r
+    return e10, e11, e12, n1 * e12 - n2 * e11, n2 * e10 - n0 * e12, n0 * e11 - n1 * e10
+
+
 @nb.njit(cache=True, nogil=True, error_model="numpy")
 def _fan_points(ptr, xyz, normal, c, moment, point, weight, face):
     """Rules "centroid" and "moment" (moment: True) on convex faces, one
@@ -310,18 +326,7 @@ def _fan_points(ptr, xyz, normal, c, moment, point, weight, face):
     for f in range(F):
         a0, a1 = ptr[f], ptr[f + 1]
         n0, n1, n2 = normal[f, 0], normal[f, 1], normal[f, 2]
-        # e1 = n × (x̂ or ŷ) normalised, e2 = n × e1
-        if abs(n0) < 0.9:
-            e10, e11, e12 = 0.0, n2, -n1
-        else:
-            e10, e11, e12 = -n2, 0.0, n0
-        r = np.sqrt(e10 * e10 + e11 * e11 + e12 * e12)
-        e10 /= r
-        e11 /= r
-        e12 /= r
-        e20 = n1 * e12 - n2 * e11
-        e21 = n2 * e10 - n0 * e12
-        e22 = n0 * e11 - n1 * e10
+        e10, e11, e12, e20, e21, e22 = plane_basis(n0, n1, n2)
         J11 = J12 = J22 = P11 = P12 = P22 = 0.0
         for i in range(a0, a1):
             j = i + 1 if i + 1 < a1 else a0

@@ -24,6 +24,7 @@ import numpy as np
 
 from ._core import SIDES, Mesh, _gather
 from .polyhedron import cells_mass_properties
+from .spring_points import plane_basis
 
 JIT = dict(cache=True, nogil=True, error_model="numpy")
 
@@ -146,18 +147,8 @@ def _cut(cell, nv, nf, plane, eps, tag, w):
         c0 /= nc
         c1 /= nc
         c2 /= nc
-        # e1 ⟂ n, e2 = n × e1: the angle about n grows counter-clockwise
-        if abs(n0) < 0.9:
-            e10, e11, e12 = 0.0, n2, -n1          # x̂ × n
-        else:
-            e10, e11, e12 = -n2, 0.0, n0          # ŷ × n
-        r = np.sqrt(e10 * e10 + e11 * e11 + e12 * e12)
-        e10 /= r
-        e11 /= r
-        e12 /= r
-        e20 = n1 * e12 - n2 * e11
-        e21 = n2 * e10 - n0 * e12
-        e22 = n0 * e11 - n1 * e10
+        # the angle about n grows counter-clockwise
+        e10, e11, e12, e20, e21, e22 = plane_basis(n0, n1, n2)
         for j in range(nc):
             x0 = vx[cap[j], 0] - c0
             x1 = vx[cap[j], 1] - c1
