@@ -58,34 +58,92 @@ def spring_schedule(spring_bodies, n_bodies, parts=PARTS):
             gid[i, j] = g
             g += 1
         phase_ptr.append(g)
-    # np.lexsort((b, a, group)) as one stable sort of a combined key (the
-    # same permutation: both are stable), when it fits in 62 bits
-    m = n_bodies + 1
-    combined = g * m * m < 2**62
-    group, key = _groups(a, b, n_bodies, parts, gid, combined)
-    order = (np.argsort(key, kind="stable") if combined
-             else np.lexsort((b, a, group)))
-    counts = np.bincount(group, minlength=g)
+    # np.lexsort((b, a, group)) in O(S): a counting sort by group, then the
+    # runs of (a, b) within each group merged (the build makes a group's
+    # springs as two runs: the faces', sorted by their cells, then the
+    # supports'), stable, so the same permutation
+    order, counts = _by_group(a, b, n_bodies, parts, gid, g)
     group_ptr = np.zeros(g + 1, dtype=np.int32)
     np.cumsum(counts, out=group_ptr[1:])
+    _merge_runs(order, a, b, group_ptr)
     return order, group_ptr, np.asarray(phase_ptr, dtype=np.int32)
 
 
 @nb.njit(cache=True, nogil=True)
-def _groups(a, b, n_bodies, parts, gid, combined):
-    """Each spring's group (its bodies' parts, the ground in a's part) and,
-    when ``combined``, its sort key (group·m + a)·m + b, m = n_bodies + 1:
-    one pass, no temporaries (a build of 10⁶ cells has 4·10⁷ springs)."""
-    n = len(a)
-    group = np.empty(n, dtype=np.int64)
-    key = np.empty(n if combined else 0, dtype=np.int64)
+def _group_of(a, b, n_bodies, parts, gid):
+    """A spring's group: its bodies' parts (the ground in a's part)."""
     d = max(n_bodies, 1)
-    m = n_bodies + 1
+    pa = (a * parts) // d
+    pb = pa if b == n_bodies else (min(b, n_bodies) * parts) // d
+    return gid[min(pa, pb), max(pa, pb)]
+
+
+@nb.njit(cache=True, nogil=True)
+def _by_group(a, b, n_bodies, parts, gid, n_groups):
+    """(the springs' order by group, stable (a counting sort), the groups'
+    sizes): two passes, no per-spring temporaries (a build of 10⁶ cells has
+    4·10⁷ springs)."""
+    n = len(a)
+    counts = np.zeros(n_groups, dtype=np.int64)
     for i in range(n):
-        pa = (a[i] * parts) // d
-        pb = pa if b[i] == n_bodies else (min(b[i], n_bodies) * parts) // d
-        g = gid[min(pa, pb), max(pa, pb)]
-        group[i] = g
-        if combined:
-            key[i] = (g * m + a[i]) * m + b[i]
-    return group, key
+        counts[_group_of(a[i], b[i], n_bodies, parts, gid)] += 1
+    at = np.zeros(n_groups, dtype=np.int64)
+    for k in range(1, n_groups):
+        at[k] = at[k - 1] + counts[k - 1]
+    order = np.empty(n, dtype=np.int64)
+    for i in range(n):
+        g = _group_of(a[i], b[i], n_bodies, parts, gid)
+        order[at[g]] = i
+        at[g] += 1
+    return order, counts
+
+
+@nb.njit(cache=True, nogil=True, inline="always")
+def _before(a, b, i, j):
+    """(a, b) of spring j before that of spring i (lexicographic)."""
+    return a[j] < a[i] or (a[j] == a[i] and b[j] < b[i])
+
+
+@nb.njit(cache=True, nogil=True)
+def _merge_runs(order, a, b, group_ptr):
+    """Sort each group's range of `order` by (a, b), stably, in place: a
+    natural merge sort (adjacent non-decreasing runs merged pairwise until
+    one is left; a sorted range costs one pass)."""
+    most = 0
+    for g in range(len(group_ptr) - 1):
+        most = max(most, group_ptr[g + 1] - group_ptr[g])
+    tmp = np.empty(0, dtype=np.int64)
+    for g in range(len(group_ptr) - 1):
+        lo, hi = np.int64(group_ptr[g]), np.int64(group_ptr[g + 1])
+        while True:
+            # the runs' starts
+            starts = [lo]
+            for k in range(lo + 1, hi):
+                if _before(a, b, order[k - 1], order[k]):
+                    starts.append(k)
+            if len(starts) == 1:
+                break
+            if len(tmp) == 0:
+                tmp = np.empty(most, dtype=np.int64)
+            starts.append(hi)
+            for r in range(0, len(starts) - 2, 2):
+                s0, s1, s2 = starts[r], starts[r + 1], starts[r + 2]
+                i, j, k = s0, s1, 0
+                while i < s1 and j < s2:
+                    # a tie takes the left run's first: stable
+                    if _before(a, b, order[i], order[j]):
+                        tmp[k] = order[j]
+                        j += 1
+                    else:
+                        tmp[k] = order[i]
+                        i += 1
+                    k += 1
+                while i < s1:
+                    tmp[k] = order[i]
+                    i += 1
+                    k += 1
+                while j < s2:
+                    tmp[k] = order[j]
+                    j += 1
+                    k += 1
+                order[s0:s2] = tmp[:k]

@@ -354,6 +354,24 @@ def test_voronoi_seeds_spacing_and_reproducibility():
     assert abs((s1[:, 0] < 0.5).sum() - n / 2) < 5 * np.sqrt(n / 4)
 
 
+@pytest.mark.parametrize("hi, n, r", [((8.0, 8.0, 8.0), 20000, 0.5), ((10.0, 3.0, 0.0), 3000, 0.3),
+                                      ((5.0, 5.0, 5.0), 200, 2.0), ((50.0, 1.0, 20.0), 20000, 0.4)])
+def test_the_later_of_each_close_pair_is_dropped_as_query_pairs_finds_it(hi, n, r):
+    """voronoi_seeds' spacing (mesh/voronoi.py _first_of_close): a candidate
+    is dropped when an earlier one lies within r (distance ≤ r), whether
+    or not that one is kept: the set cKDTree.query_pairs(r) gives, so the
+    seeds of a case are those it gave (a cube, a flat box as a plane
+    model's, few points in large bins, a slab one bin thick)."""
+    from rbsm_dyn.mesh.voronoi import _first_of_close
+    lo, hi = np.zeros(3), np.array(hi)
+    c = np.random.default_rng(5).uniform(lo, hi, size=(n, 3))
+    keep = np.ones(n, dtype=bool)
+    pairs = cKDTree(c).query_pairs(r, output_type="ndarray")
+    keep[pairs.max(axis=1)] = False
+    got = _first_of_close(c, r, lo, hi)
+    assert 0 < (~keep).sum() < n and np.array_equal(got, keep)
+
+
 def test_voronoi_mesh_reproducible():
     box, size = [[0, 0, 0], [0.5, 0.4, 0.3]], 0.05
     m1, m2, m3 = (voronoi_mesh(box, size, seed=s) for s in (5, 5, 6))

@@ -44,6 +44,8 @@ from typing import NamedTuple
 import numba as nb
 import numpy as np
 
+from ..threads import build_threads, on_threads
+
 __all__ = ["SpringPoints", "spring_points", "polygon_properties", "RULES"]
 
 RULES = ("centroid", "moment", "three")
@@ -293,9 +295,13 @@ def _convex_points(vertex_ptr, vertex_xyz, normal, rule):
     K = int(vertex_ptr[-1])
     point, weight = np.empty((K, 3)), np.empty(K)
     face = np.empty(K, dtype=np.int64)
-    if _fan_points(vertex_ptr, vertex_xyz, normal, c, rule == "moment", point, weight, face):
-        return SpringPoints(point, weight, face)
-    return None
+    # faces in ranges on threads for a large mesh (a face's points are its own)
+    F = len(vertex_ptr) - 1
+    nt = build_threads() if K >= THREADED_POINTS else 1
+    ok = on_threads(_fan_points, F, nt,
+                    lambda f0, f1: (vertex_ptr, vertex_xyz, normal, c, rule == "moment",
+                                    (point, weight, face), f0, f1))
+    return SpringPoints(point, weight, face) if all(ok) else None
 
 
 @nb.njit(inline="always", cache=True)
@@ -314,16 +320,21 @@ def plane_basis(n0, n1, n2):
     return e10, e11, e12, n1 * e12 - n2 * e11, n2 * e10 - n0 * e12, n0 * e11 - n1 * e10
 
 
+#: spring points from which _convex_points runs on threads
+THREADED_POINTS = 200_000
+
+
 @nb.njit(cache=True, nogil=True, error_model="numpy")
-def _fan_points(ptr, xyz, normal, c, moment, point, weight, face):
-    """Rules "centroid" and "moment" (moment: True) on convex faces, one
-    point per fan triangle (c, v_k, v_k+1) into point/weight/face (rows of
-    xyz); the module docstring's formulas, face by face.  Returns False (and
-    leaves the rows unfinished) if a face has a fan triangle of negative
-    area: a non-convex face, for the vectorised path's ear clipping."""
-    F = len(ptr) - 1
-    ok = np.ones(F, dtype=np.bool_)
-    for f in range(F):
+def _fan_points(ptr, xyz, normal, c, moment, out, f0, f1):
+    """Rules "centroid" and "moment" (moment: True) on the convex faces f0 …
+    f1 − 1, one point per fan triangle (c, v_k, v_k+1) into out = (point,
+    weight, face) (rows of xyz); the module docstring's formulas, face by
+    face.  Returns False (and leaves the rows unfinished) if a face has a
+    fan triangle of negative area: a non-convex face, for the vectorised
+    path's ear clipping."""
+    point, weight, face = out
+    ok = np.ones(max(f1 - f0, 0), dtype=np.bool_)
+    for f in range(f0, f1):
         a0, a1 = ptr[f], ptr[f + 1]
         n0, n1, n2 = normal[f, 0], normal[f, 1], normal[f, 2]
         e10, e11, e12, e20, e21, e22 = plane_basis(n0, n1, n2)
@@ -335,7 +346,7 @@ def _fan_points(ptr, xyz, normal, c, moment, point, weight, face):
             w = 0.5 * ((q11 * q22 - q12 * q21) * n0 + (q12 * q20 - q10 * q22) * n1
                        + (q10 * q21 - q11 * q20) * n2)
             if w < 0.0:
-                ok[f] = False
+                ok[f - f0] = False
             u1 = q10 * e10 + q11 * e11 + q12 * e12
             v1 = q10 * e20 + q11 * e21 + q12 * e22
             u2 = q20 * e10 + q21 * e11 + q22 * e12
@@ -391,8 +402,8 @@ def _fan_points(ptr, xyz, normal, c, moment, point, weight, face):
             point[i, 0] = c[f, 0] + nu * e10 + nv * e20
             point[i, 1] = c[f, 1] + nu * e11 + nv * e21
             point[i, 2] = c[f, 2] + nu * e12 + nv * e22
-    for f in range(F):
-        if not ok[f]:
+    for k in range(len(ok)):
+        if not ok[k]:
             return False
     return True
 

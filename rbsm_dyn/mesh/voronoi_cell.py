@@ -22,6 +22,7 @@ neighbour that made them (≥ 0) or the box side (−1 − side).
 import numba as nb
 import numpy as np
 
+from ..threads import build_threads, on_threads
 from ._core import SIDES, Mesh, _gather
 from .polyhedron import cells_mass_properties
 from .spring_points import plane_basis
@@ -257,18 +258,6 @@ def build_cells(cells, seeds, nbr, nd2, box, eps, i0, i1, out, status):
         status[i] = st
 
 
-def _on_threads(fn, n, nt, args):
-    """fn(*args(i0, i1)) over [0, n) cut into nt contiguous ranges [i0, i1), one
-    per thread (fn a Numba function without the GIL): the ranges' results
-    do not depend on nt."""
-    if nt <= 1 or n < 2 * nt:
-        fn(*args(0, n))
-        return
-    from concurrent.futures import ThreadPoolExecutor
-    with ThreadPoolExecutor(nt) as ex:
-        list(ex.map(lambda t: fn(*args(t * n // nt, (t + 1) * n // nt)), range(nt)))
-
-
 @nb.njit(**JIT)
 def _count(sel, out_nv, out_nf, out_fn):
     """Vertices, polygons and polygon entries of the built cells sel."""
@@ -326,6 +315,10 @@ def _compact(cells, sel, out, dest, key):
         v0 += out_nv[i]
 
 
+#: cells from which cells_of_box cuts on threads
+THREADED_CELLS = 8192
+
+
 def cells_of_box(seeds, box, size, chunk=4096, k0=64):
     """The Voronoi cells of ``seeds`` clipped to ``box``, one at a time:
     (vertices (V, 3), cell_vertex_ptr (N+1,), poly_ptr, poly_vertex (ids into
@@ -341,6 +334,9 @@ def cells_of_box(seeds, box, size, chunk=4096, k0=64):
     N = len(seeds)
     eps = 1e-10 * size
     tree = cKDTree(seeds)
+    # threads for a mesh large enough to pay for them (threads.py: the idle
+    # cores, or Numba's count; 8 192 cells cut in about 0.4 s on one)
+    nt = build_threads() if N >= THREADED_CELLS else 1
     chunk = max(1, min(chunk, N))
     out = (np.empty(chunk, dtype=np.int64), np.empty((chunk, MV, 3)),
            np.empty(chunk, dtype=np.int64), np.empty((chunk, MF), dtype=np.int64),
@@ -355,12 +351,12 @@ def cells_of_box(seeds, box, size, chunk=4096, k0=64):
         for c0 in range(0, len(pending), chunk):
             cells = pending[c0:c0 + chunk]
             m = len(cells)
-            d, j = tree.query(seeds[cells], k=k + 1, workers=-1)
+            d, j = tree.query(seeds[cells], k=k + 1, workers=nt)
             d, j = d.reshape(m, -1)[:, 1:], j.reshape(m, -1)[:, 1:]
             nd2 = np.ascontiguousarray(d * d)
             nbr = np.ascontiguousarray(np.where(j >= N, -1, j), dtype=np.int64)
             o = tuple(a[:m] for a in out)
-            _on_threads(build_cells, m, nb.get_num_threads(),
+            on_threads(build_cells, m, nt,
                         lambda i0, i1: (cells, seeds, nbr, nd2, (lo, hi), eps, i0, i1, o,
                                         status[:m]))
             st = status[:m]
@@ -398,9 +394,13 @@ def _join(parts, N):
     poly_ptr = np.zeros(cpp[-1] + 1, dtype=np.int64)
     poly_vertex = np.empty(cep[-1], dtype=np.int64)
     poly_tag = np.empty(cpp[-1], dtype=np.int64)
-    for (cs, a, b, c, vx, ptr, vid, tag) in parts:
-        _place(cs, a, b, (vx, ptr, vid, tag), (cvp, cpp, cep),
-               (vertices, poly_ptr, poly_vertex, poly_tag))
+    def place(k0, k1):
+        # (the chunks' cells go to disjoint rows: chunks on threads)
+        for (cs, a, b, c, vx, ptr, vid, tag) in parts[k0:k1]:
+            _place(cs, a, b, (vx, ptr, vid, tag), (cvp, cpp, cep),
+                   (vertices, poly_ptr, poly_vertex, poly_tag))
+    on_threads(place, len(parts), build_threads() if N >= THREADED_CELLS else 1,
+               lambda k0, k1: (k0, k1))
     np.cumsum(poly_ptr, out=poly_ptr)
     return vertices, cvp, poly_ptr, poly_vertex, cpp, poly_tag
 
@@ -435,11 +435,13 @@ def _place(cs, nv, npoly, src, at, dest):
 
 
 @nb.njit(**JIT)
-def _polygons(cpp, poly_ptr, poly_vertex, tag, vertices, seeds, normal, area, centroid):
-    """Each cell's polygons: the unit normal (to the neighbour's seed, or the
-    box side's), area and area centroid (the fan from the vertex mean, as
-    spring_points._polygon_properties sums it)."""
-    for c in range(len(cpp) - 1):
+def _polygons(cpp, poly_ptr, poly_vertex, tag, vertices, seeds, out, c0, c1):
+    """The polygons of the cells c0 … c1 − 1: the unit normal (to the
+    neighbour's seed, or the box side's), area and area centroid (the fan
+    from the vertex mean, as spring_points._polygon_properties sums it),
+    into out = (normal, area, centroid)."""
+    normal, area, centroid = out
+    for c in range(c0, c1):
         for p in range(cpp[c], cpp[c + 1]):
             t = tag[p]
             if t >= 0:
@@ -512,7 +514,9 @@ def box_voronoi_mesh(seeds, box, size):
     pcell = np.repeat(np.arange(N), np.diff(cpp))
     P = len(tag)
     pn, parea, pcen = np.empty((P, 3)), np.empty(P), np.empty((P, 3))
-    _polygons(cpp, poly_ptr, poly_vertex, tag, vertices, seeds, pn, parea, pcen)
+    on_threads(_polygons, N, build_threads() if N >= THREADED_CELLS else 1,
+               lambda c0, c1: (cpp, poly_ptr, poly_vertex, tag, vertices, seeds,
+                               (pn, parea, pcen), c0, c1))
     keep = parea > 1e-16 * size * size
     if not np.all(keep):
         sel = np.flatnonzero(keep)

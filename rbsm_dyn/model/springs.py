@@ -8,17 +8,18 @@ from ..calibration import stiffness_rule
 from ..mesh import spring_points
 from ..physics.laws import BROKEN, ELASTIC
 from ..physics.rotation import frames_from_normals, matrix_to_quat
+from ..threads import build_threads, on_threads
 from .core import IDX
 from .laws import strength_of
 from .loads import surface_ids
 
 
-@nb.njit(cache=True)
-def _arms(rot, pos0, sb, point, arm_a, arm_b):
-    """Arms of the spring points in their bodies' principal frames:
-    arm = Rᵀ (point − centroid), for body a and body b (the ground's R is
-    the identity); a loop, no (S, 3, 3) gather."""
-    for s in range(sb.shape[0]):
+@nb.njit(cache=True, nogil=True)
+def _arms(rot, pos0, sb, point, arm_a, arm_b, s0, s1):
+    """Arms of the spring points s0 … s1 − 1 in their bodies' principal
+    frames: arm = Rᵀ (point − centroid), for body a and body b (the ground's
+    R is the identity); a loop, no (S, 3, 3) gather."""
+    for s in range(s0, s1):
         for side in range(2):
             i = sb[s, side]
             d0 = point[s, 0] - pos0[i, 0]
@@ -88,8 +89,10 @@ def internal_springs(case, mesh, parts, body_part, body_rigid, laws):
                                 part_rule[np.where(body_rigid[fa], body_part[fb], body_part[fa])],
                                 points_rule(case))
     f = sp.face
-    a = mesh.face_cells[f, 0].astype(IDX)
-    b = mesh.face_cells[f, 1].astype(IDX)
+    # (the per-face columns in IDX first, then gathered: one array per
+    # spring point each, not two)
+    a = mesh.face_cells[:, 0].astype(IDX)[f]
+    b = mesh.face_cells[:, 1].astype(IDX)[f]
     # what a face's spring points share is computed per face (a face has
     # about five) and taken by f
     fa, fb = mesh.face_cells[:, 0], mesh.face_cells[:, 1]
@@ -103,12 +106,12 @@ def internal_springs(case, mesh, parts, body_part, body_rigid, laws):
     keep = _uncut(case, mesh.cell_centroid, a, b, sp.point)
     n_cut = int((~keep).sum())
     law, contact = _face_laws(case, mesh, fa, fb, body_rigid, laws)
-    state0 = np.where(keep & ~contact[f], ELASTIC, BROKEN).astype(np.int8)
+    state0 = np.where(keep & ~contact[f], np.int8(ELASTIC), np.int8(BROKEN))
     nrm = mesh.face_normal
     frame = _frames_from_normals(nrm) if case.plane is None else plane_frames(nrm)
     # FACE_KEYS per face (rows), the rest per spring point (row: its face)
     internal = dict(a=a, b=b, point=sp.point, area=sp.weight, face=f.astype(IDX),
-                    state0=state0, row=f.astype(np.int64))
+                    state0=state0, row=f.astype(np.int64, copy=False))
     rows = dict(h=h_a + h_b, kpa=np.stack([kn, ks, ks], axis=1), frame=frame, law=law)
     return internal, rows, n_cut
 
@@ -294,12 +297,20 @@ def _axis_frames(nrm_b, axis, fix, k):
     return frames
 
 
+#: spring points from which spring_arms runs on threads
+THREADED_SPRINGS = 200_000
+
+
 def spring_arms(rot0, pos0, sb, point):
     """Arms (S, 3) of the spring points in the principal frames of bodies a and b."""
     rot_all = np.ascontiguousarray(np.concatenate([rot0, np.eye(3)[None]]))
     arm_a = np.empty((len(sb), 3))
     arm_b = np.empty((len(sb), 3))
-    _arms(rot_all, pos0, sb, np.ascontiguousarray(point), arm_a, arm_b)
+    point = np.ascontiguousarray(point)
+    # spring ranges on threads for a large model (threads.py)
+    nt = build_threads() if len(sb) >= THREADED_SPRINGS else 1
+    on_threads(_arms, len(sb), nt,
+               lambda s0, s1: (rot_all, pos0, sb, point, arm_a, arm_b, s0, s1))
     return arm_a, arm_b
 
 

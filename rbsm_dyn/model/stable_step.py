@@ -6,6 +6,7 @@ import numpy as np
 
 from ..physics.poisson import poisson_abs_product
 from ..physics.rotation import quat_mul
+from ..threads import build_threads
 
 
 @nb.njit(cache=True)
@@ -260,8 +261,8 @@ def scaled_row_sums(model, x=None, state=None):
                 else np.zeros(0, dtype=np.int8))
     bodies = (rot, model.body_mass, model.body_inertia)
     ph = model.phase_ptr
-    nt = nb.get_num_threads()
-    if nt <= 1 or model.n_springs < 100_000:
+    nt = build_threads() if model.n_springs >= 100_000 else 1
+    if nt <= 1:
         _face_row_sums(springs, bodies, active, xx, out, 0, int(ph[-1]), pose)
     else:
         # the groups of a phase share no body: each body's sums come in the
