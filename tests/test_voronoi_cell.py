@@ -77,3 +77,19 @@ def test_chunks_and_retries_do_not_change_the_cells():
     b = cells_of_box(seeds, box, 1.0, chunk=17, k0=4)
     for x, y in zip(a, b):
         assert np.array_equal(x, y)
+
+
+@pytest.mark.parametrize("reach", [0.5, 1.5, np.inf])
+def test_the_first_search_reach_does_not_change_the_cells(monkeypatch, reach):
+    """The first neighbour search lists the seeds within REACH cell sizes; a
+    cell it cannot close (REACH 0.5 and 1.5: most or some) goes again,
+    unbounded: the same arrays as the default's (REACH 3) and an unbounded
+    first search's."""
+    import rbsm_dyn.mesh.voronoi_cell as vc
+    box = np.array([[0.0, 0.0, 0.0], [6.0, 4.0, 5.0]])
+    seeds = voronoi_seeds(box, 1.0, seed=8)
+    a = vc.cells_of_box(seeds, box, 1.0)
+    monkeypatch.setattr(vc, "REACH", reach)
+    b = vc.cells_of_box(seeds, box, 1.0)
+    for x, y in zip(a, b):
+        assert np.array_equal(x, y)

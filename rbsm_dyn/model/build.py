@@ -12,12 +12,14 @@ from ..physics.laws import BROKEN, P_CRIT, P_MODEL, P_RUPT
 from ..physics.laws.plastic import CONTINUUM
 from ..physics.poisson import build_poisson, empty_poisson
 from ..physics.rotation import matrix_to_quat, quat_matrix_np
+from ..threads import build_threads, on_threads
 from .contact import build_contact, contact_setting
 from .core import IDX, Model
 from .laws import body_materials, compression_notes, law_slots, viscous_laws
 from .loads import Amplitudes, body_groups, body_loads, constraints, interface_notes
 from .mesh_build import build_mesh
-from .springs import face_rows, face_table, internal_springs, spring_arms, support_springs
+from .springs import (THREADED_SPRINGS, face_rows, face_table, internal_springs, spring_arms,
+                      support_springs)
 
 
 def build_model(case, mesh=None):
@@ -227,8 +229,15 @@ def _schedule(pieces, n):
     cat = {key: np.concatenate([p.pop(key) for p in pieces]) for key in list(pieces[0])}
     # spring order of the thread-safe schedule (partition.py): by group, then (a, b)
     order, group_ptr, phase_ptr = spring_schedule(np.stack([cat["a"], cat["b"]], axis=1), n)
+    nt = build_threads() if len(order) >= THREADED_SPRINGS else 1
     for key in list(cat):
-        cat[key] = cat[key][order]
+        x = cat.pop(key)
+        # (np.take releases the GIL: ranges of the order on threads)
+        out = np.empty((len(order),) + x.shape[1:], dtype=x.dtype)
+        on_threads(lambda i0, i1: np.take(x, order[i0:i1], axis=0, out=out[i0:i1]),
+                   len(order), nt, lambda i0, i1: (i0, i1))
+        cat[key] = out
+        del x
     return cat, group_ptr, phase_ptr
 
 
