@@ -11,10 +11,9 @@ over 0.2 s from /proc/stat; the one-minute load average where there is no
 never slower than one thread; two on a busy two-core machine were 0.5-0.9x
 of it.  While a dynamic run steps, Governor looks again every 30 s, so a
 program started beside a run gets its core back (and returns it when it
-stops).  A build large enough to run on threads (build_threads: the
-Voronoi cells, the stable-step bound) takes the idle cores of one look,
-which the stepping's choice after it reuses.  `--threads` and
-`solver.threads` override.
+stops).  A build's threaded passes take Numba's count (build_threads:
+long independent ranges, which a busy core does not hold up).
+`--threads` and `solver.threads` override.
 """
 import math
 import os
@@ -115,15 +114,6 @@ def running_others(samples=None, gap=None):
     return total / samples
 
 
-#: a build's threads when the user gave no count (build_on_idle_cores):
-#: "auto" whether to look, "look" (monotonic time, idle cores) of the look
-#: its first threaded pass took (build_threads)
-_BUILD = {"auto": False, "look": None}
-#: [s]: default_threads after a build takes the build's look when it is this
-#: recent (a build shorter than this does not pay for a second 0.2 s look)
-LOOK_AGE = 10.0
-
-
 def idle_cores(own=None, samples=None):
     """Cores this process may use that other processes leave idle (at least
     1): its cores less the others' runnable tasks now (running_others), or
@@ -136,40 +126,26 @@ def idle_cores(own=None, samples=None):
     return max(1, min(cores, int(cores - load + 0.5)))
 
 
-def build_on_idle_cores(on=True):
-    """The command line's build when the user gave no count: its threaded
-    passes take the idle cores (build_threads); off again once the
-    stepping's count is chosen (default_threads) or with on=False."""
-    _BUILD["auto"], _BUILD["look"] = bool(on), None
-
-
 def build_threads():
     """Threads for one threaded pass of a build (mesh/voronoi_cell.py cells,
-    the k-d tree's queries, model/stable_step.py row sums): Numba's count,
-    or under build_on_idle_cores the idle cores of one look per build,
-    taken by the first pass that asks (a small model asks nothing and pays
-    no look).  Beside a busy process two threads on two cores took 7.7 s
-    where one took 5.5 s (the stable-step bound at 100 000 cells); the
-    model does not depend on the count."""
+    the k-d tree's queries, spring points and arms, the schedule's gathers,
+    model/stable_step.py row sums): Numba's count, the load not looked at.
+    These passes hand each thread a long range of independent work, with
+    no barrier inside it, so a busy core slows one range and not every
+    step: beside `yes > /dev/null` on two cores, 200 000 cells built in
+    11.9-12.7 s on two threads and 12.8-13.7 s on one, and their stable-step
+    bound took 6.5-6.9 s against 8.6-10.0 s.  The model does not depend on
+    the count."""
     import numba
-    nt = numba.get_num_threads()
-    if not _BUILD["auto"]:
-        return nt
-    if _BUILD["look"] is None:
-        _BUILD["look"] = (time.monotonic(), idle_cores())
-    return max(1, min(nt, _BUILD["look"][1]))
+    return numba.get_num_threads()
 
 
 def default_threads(n_springs, available):
     """Threads for a model of n_springs spring points when the user gave no
     count; `available` the most Numba has (NUMBA_NUM_THREADS)."""
-    look = _BUILD["look"]
-    build_on_idle_cores(False)
     if n_springs < SERIAL_SPRINGS:
         return 1
-    if look is None or time.monotonic() - look[0] > LOOK_AGE:
-        return max(1, min(int(available), idle_cores()))
-    return max(1, min(int(available), look[1]))
+    return max(1, min(int(available), idle_cores()))
 
 
 #: seconds between two looks at the load while a run with the default count

@@ -103,37 +103,3 @@ def test_passive_unless_the_user_set_a_policy():
     assert _policy(env) == "PASSIVE"
     assert _policy(dict(env, OMP_WAIT_POLICY="ACTIVE")) == "ACTIVE"
 
-
-def test_the_build_takes_the_idle_cores_and_the_step_reuses_its_look(monkeypatch):
-    """threads.build_threads: a run given no count (build_on_idle_cores)
-    builds on the idle cores, looked at once by the first threaded pass
-    (two cores, one busy: one thread); without it, Numba's count.
-    default_threads right after takes that look (no second 0.2 s
-    sampling), and looks again when it is older than LOOK_AGE."""
-    import numba
-    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0, 1}, raising=False)
-    monkeypatch.setattr(threads, "_own_running", lambda: 1)
-    monkeypatch.setattr(threads, "SAMPLE_GAP", 0.0)
-    monkeypatch.setattr(numba, "get_num_threads", lambda: 2)
-    looks = []
-
-    def running():
-        looks.append(1)
-        return 2                    # this process's 1 + one other program
-    monkeypatch.setattr(threads, "_procs_running", running)
-    big = 10 * threads.SERIAL_SPRINGS
-    assert threads.build_threads() == 2 and not looks           # not asked: Numba's
-    threads.build_on_idle_cores()
-    assert threads.build_threads() == 1
-    n = len(looks)
-    assert threads.build_threads() == 1 and len(looks) == n     # one look per build
-    assert threads.default_threads(big, 2) == 1 and len(looks) == n
-    assert threads.build_threads() == 2                         # the build is over
-    monkeypatch.setattr(threads, "_procs_running", lambda: 1)   # the other program ended
-    assert threads.default_threads(big, 2) == 2                 # a look of its own
-    threads.build_on_idle_cores()
-    monkeypatch.setattr(threads, "_procs_running", running)
-    threads.build_threads()
-    monkeypatch.setattr(threads, "_procs_running", lambda: 1)
-    monkeypatch.setattr(threads, "LOOK_AGE", -1.0)              # a long build
-    assert threads.default_threads(big, 2) == 2

@@ -40,14 +40,8 @@ def prepare(command, case, args):
     build; a run's goes on into the run (run.py ends it)."""
     if args.threads is not None:
         threads = _set_threads(args.threads, "--threads")
-    elif getattr(case.solver, "threads", None) is not None:
-        threads = _set_threads(case.solver.threads, "solver.threads")
     else:
-        # no count given: the build's threaded passes on the idle cores
-        # (threads.py), the stepping's count chosen once the model is built
-        from ..threads import build_on_idle_cores
-        build_on_idle_cores()
-        threads = _set_threads(None, "default")
+        threads = _set_threads(getattr(case.solver, "threads", None), "solver.threads")
     notice = compile_notice(command, case, args)
     try:
         ready = _prepared(command, case, args, threads, notice)
@@ -61,11 +55,9 @@ def prepare(command, case, args):
 
 def _prepared(command, case, args, threads, notice):
     from ..case import CaseError
-    from ..threads import build_on_idle_cores
     try:
         model = _model(command, case, args)
     except CaseError as exc:
-        build_on_idle_cores(False)
         notice.cancel()
         print(f"rbsm_dyn: {exc}", file=sys.stderr)
         return 2
