@@ -197,9 +197,16 @@ class Model:
         """(S, 3) rest position [m] of each spring point: body a's centroid
         plus its arm (the ground's frame is the world's).  Computed, not
         held (48 B per spring point with spring_normal; issue 15)."""
+        # (the bodies' matrices once, then chunks of springs: no (S, 3, 3)
+        # temporary, 560 MB at 200 000 cells)
+        R = quat_matrix_np(self.body_quat0)
         a = self.spring_bodies[:, 0]
-        return self.body_pos0[a] + np.einsum("sij,sj->si", quat_matrix_np(self.body_quat0[a]),
-                                             self.spring_arm_a)
+        out = np.empty((len(a), 3))
+        for s0 in range(0, len(a), 1 << 18):
+            s1 = min(s0 + (1 << 18), len(a))
+            out[s0:s1] = self.body_pos0[a[s0:s1]] + np.einsum(
+                "sij,sj->si", R[a[s0:s1]], self.spring_arm_a[s0:s1])
+        return out
 
     @property
     def n_springs(self):
@@ -224,7 +231,10 @@ class Model:
         without a Mesh (None, or already a summary) is returned as it is."""
         if self.mesh is None or isinstance(self.mesh, MeshSummary):
             return self
-        return dataclasses.replace(self, mesh=MeshSummary.of(self.mesh))
+        out = dataclasses.replace(self, mesh=MeshSummary.of(self.mesh))
+        if "_stable_dt_ref" in self.__dict__:     # (the mesh is not in the bound)
+            object.__setattr__(out, "_stable_dt_ref", self.__dict__["_stable_dt_ref"])
+        return out
 
     def stable_dt(self, state=None):
         """Stable step 2/ω_max from a bound on ω_max² = λ_max(M⁻¹K): Gershgorin
@@ -238,7 +248,18 @@ class Model:
         `state`: the bound of a deformed state (the levers to the springs'
         midpoints, which plastic and slip gaps lengthen; the step a run
         takes from there, solvers/explicit.py), else of the reference
-        configuration."""
+        configuration: computed once per Model (its arrays are not changed
+        after the build; dataclasses.replace makes a new Model, whose bound
+        is computed anew): a run's checks, estimate and start ask for it
+        four times, 4.6 s each at 200 000 cells."""
+        if state is None and "_stable_dt_ref" in self.__dict__:
+            return self.__dict__["_stable_dt_ref"]
+        dt = self._stable_dt(state)
+        if state is None:
+            object.__setattr__(self, "_stable_dt_ref", dt)
+        return dt
+
+    def _stable_dt(self, state):
         lam = omega_max_bound(self, state=state)
         dt = np.inf if lam <= 0 else 2.0 / np.sqrt(lam)
         if self.viscous and np.isfinite(dt):
