@@ -333,8 +333,9 @@ def cells_of_box(seeds, box, size, chunk=4096, k0=64):
     vertices), cell_poly_ptr (N+1,), poly_tag (neighbour ≥ 0 or −1 − side)).
     Neighbours come from a k-d tree, at first the ``k0`` nearest within
     REACH cell sizes (about 1 % of the cells of random seeds then need
-    more) and twice as many, unbounded, for the cells they did not close.  The cells go in chunks of ``chunk`` through
-    fixed-capacity work rows (about 30 MB)."""
+    more) and twice as many, unbounded, for the cells they did not close.
+    The cells go in chunks of ``chunk`` through fixed-capacity work rows
+    (about 30 MB)."""
     from scipy.spatial import cKDTree
     seeds = np.ascontiguousarray(seeds, dtype=np.float64)
     box = np.asarray(box, dtype=np.float64)
@@ -342,8 +343,8 @@ def cells_of_box(seeds, box, size, chunk=4096, k0=64):
     N = len(seeds)
     eps = 1e-10 * size
     tree = cKDTree(seeds)
-    # threads for a mesh large enough to pay for them (threads.py: the idle
-    # cores, or Numba's count; 8 192 cells cut in about 0.4 s on one)
+    # threads (Numba's count, threads.py) for a mesh large enough to pay
+    # for them (8 192 cells cut in about 0.4 s on one)
     nt = build_threads() if N >= THREADED_CELLS else 1
     chunk = max(1, min(chunk, N))
     out = (np.empty(chunk, dtype=np.int64), np.empty((chunk, MV, 3)),
@@ -409,6 +410,7 @@ def _join(parts, N):
     poly_ptr = np.zeros(cpp[-1] + 1, dtype=np.int64)
     poly_vertex = np.empty(cep[-1], dtype=np.int64)
     poly_tag = np.empty(cpp[-1], dtype=np.int64)
+
     def place(k0, k1):
         # (the chunks' cells go to disjoint rows: chunks on threads)
         for (cs, a, b, c, vx, ptr, vid, tag) in parts[k0:k1]:

@@ -231,14 +231,17 @@ def _schedule(pieces, n):
     order, group_ptr, phase_ptr = spring_schedule(np.stack([cat["a"], cat["b"]], axis=1), n)
     nt = build_threads() if len(order) >= THREADED_SPRINGS else 1
     for key in list(cat):
-        x = cat.pop(key)
-        # (np.take releases the GIL: ranges of the order on threads)
-        out = np.empty((len(order),) + x.shape[1:], dtype=x.dtype)
-        on_threads(lambda i0, i1: np.take(x, order[i0:i1], axis=0, out=out[i0:i1]),
-                   len(order), nt, lambda i0, i1: (i0, i1))
-        cat[key] = out
-        del x
+        cat[key] = _take(cat.pop(key), order, nt)
     return cat, group_ptr, phase_ptr
+
+
+def _take(x, order, nt):
+    """x[order] (rows), ranges of the order on nt threads (np.take releases
+    the GIL)."""
+    out = np.empty((len(order),) + x.shape[1:], dtype=x.dtype)
+    on_threads(lambda i0, i1: np.take(x, order[i0:i1], axis=0, out=out[i0:i1]),
+               len(order), nt, lambda i0, i1: (i0, i1))
+    return out
 
 
 def _poisson(case, mesh, rot0, body_rigid, body_material, laws, spring_face, state0):
