@@ -195,3 +195,34 @@ def test_prism_in_compression_rises_by_the_compressive_factor(run_case):
                                           extra=extra, frames=150))
         peaks.append(float(np.max(-np.asarray(h.observables["F"]))))
     assert peaks[1] / peaks[0] == pytest.approx(model_code_compression_factor(10.0), rel=0.05)
+
+
+@pytest.mark.parametrize("alpha, r, cfac", [(0.27, 2.0, 1.0), (1.0, 1.0, 1.0), (4.0, 0.5, 1.0),
+                                            (0.27, 2.0, 0.6), (0.05, 3.0, 1.8)])
+def test_mixed_mode_damage_starts_on_the_envelope_in_every_direction(alpha, r, cfac):
+    """The mixed-mode law stays undamaged up to its strength t0(ω) on the
+    gap's direction (the CSL envelope τ² = f_s²(1 − σ/f_t) in t_eq =
+    √(σ² + τ²/α), Cusatis, Pelessone & Mencarelli 2011 eq. 23, with the
+    rate's compressive factor under compression) and damaged past it:
+    on 200 random directions, D = 0 at 0.999 w0 and D > 0 at 1.001 w0,
+    w0 = t0/kn.  (mixed_mode_damage skips the envelope below a bound of
+    t0 over all directions: this holds it under the true one.)"""
+    from rbsm_dyn.physics.laws.rupture import csl_strength, mixed_mode_damage
+    f = mixed_mode_damage.py_func
+    kn = 1.0e13
+    ks = alpha * kn
+    rng = np.random.default_rng(5)
+    for e in rng.normal(size=(200, 3)):
+        e /= np.linalg.norm(e)
+        shear = ks * (e[1] ** 2 + e[2] ** 2) / kn
+        w = np.sqrt(e[0] ** 2 + shear)
+        s, c2 = e[0] / w, shear / w ** 2
+        t0 = csl_strength.py_func(s, c2, alpha, FT, r)
+        if s < 0.0:
+            t0 *= 1.0 + (cfac - 1.0) * (-s)
+        if not np.isfinite(t0):
+            continue
+        w0 = t0 / kn
+        below = f(*(0.999 * w0 / w * e), kn, ks, ks, FT, GF, r, GF, cfac)[0]
+        above = f(*(1.001 * w0 / w * e), kn, ks, ks, FT, GF, r, GF, cfac)[0]
+        assert below == 0.0 and above > 0.0, (e, s, below, above)
