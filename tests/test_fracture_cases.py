@@ -73,18 +73,25 @@ def kw_case_text(size):
 
 def start_cli(case_path, out, threads):
     """Start `python -m rbsm_dyn case --out out` in its own process with
-    `threads` Numba threads, its output in `out`.log; returns the Popen."""
-    env = dict(os.environ, NUMBA_NUM_THREADS=str(threads))
+    `threads` Numba threads (None: the run's default, the idle cores), its
+    output in `out`.log; returns the Popen."""
+    env = dict(os.environ)
+    args = []
+    if threads is not None:
+        env["NUMBA_NUM_THREADS"] = str(threads)
+        args = ["--threads", str(threads)]
     with open(Path(out).with_suffix(".log"), "w") as log:
         return subprocess.Popen([sys.executable, "-m", "rbsm_dyn", str(case_path), "--out",
-                                 str(out), "--quiet", "--threads", str(threads)],
+                                 str(out), "--quiet", *args],
                                 stdout=log, stderr=subprocess.STDOUT, env=env)
 
 
-def run_cli(jobs, threads=2):
+def run_cli(jobs, threads=None):
     """Run cases {key: (case_path, out)} from the command line, side by side
     when there are several (one Numba thread each: on 2 cores two processes
-    beat one process on 2 threads); returns {key: history}."""
+    beat one process on 2 threads), one alone on the run's default threads
+    (the idle cores: beside the suite's other worker, one); returns {key:
+    history}."""
     threads = 1 if len(jobs) > 1 else threads
     procs = {k: start_cli(case, out, threads) for k, (case, out) in jobs.items()}
     runs = {}
