@@ -201,12 +201,12 @@ def mixed_mode_damage(en, es, et, kn, ks, kt, ft, gt, r, gs, cfac=1.0):
     kmax = ks if ks > kt else kt
     w = math.sqrt(w2)
     # inside the envelope on every direction (most springs, most steps):
-    # t0(ω) = 2 f_t/(s + √(s² + 4c)) (csl_strength, both branches) and
-    # s + √(s² + 4c) ≤ 1 + max(1, 2√α/r) ≤ 2 + (1 + α)/r (c ≤ α/r²,
-    # 2√α ≤ 1 + α), so t0 ≥ 2 f_t r/(2r + 1 + α): no damage while
-    # kn w ≤ that (the rate's compressive factor cfac < 1 lowers t0 under
-    # compression: the bound by it); the same (0, w) as below, without its
-    # divisions and root
+    # t0(ω) = 2 f_t/(s + √(s² + 4c)) (csl_strength, both branches), and
+    # with s ≤ 1, c ≤ α/r², √(a + b) ≤ √a + √b and 2√α ≤ 1 + α,
+    # s + √(s² + 4c) ≤ 2 + 2√α/r ≤ 2 + (1 + α)/r, so t0 ≥ 2 f_t r/(2r + 1
+    # + α): no damage while kn w ≤ that (the rate's compressive factor
+    # cfac < 1 lowers t0 under compression: the bound by it); the same
+    # (0, w) as below, without its divisions and roots
     if w * (kn * (2.0 * r + 1.0) + kmax) <= 2.0 * ft * r * (cfac if cfac < 1.0 else 1.0):
         return 0.0, w
     alpha = kmax / kn
