@@ -12,6 +12,9 @@ from ._version import __version__   # noqa: E402
 from . import _kernel_cache as _kc   # noqa: E402  (before any module defines a kernel)
 
 _kc.configure()
+from . import compile_once as _co   # noqa: E402  (one process compiles a kernel, others load it)
+
+_co.install()
 __all__ = ["open_history", "load_case", "__version__"]
 
 
