@@ -11,7 +11,7 @@ PKG = Path(__file__).resolve().parent.parent / "rbsm_dyn"
 #: lower layers only (docs/modules.md draws the same table)
 LAYERS = [
     {"_version", "partition", "calibration", "fracture_calibration", "compression_calibration",
-     "records", "threads", "_kernel_cache", "mpi_env", "domains"},
+     "records", "threads", "_kernel_cache", "compile_once", "mpi_env", "domains"},
     {"physics"},              # kernels only
     {"mesh"},
     {"geometry"},
