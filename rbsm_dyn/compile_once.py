@@ -18,7 +18,7 @@ never waits on a lock it holds itself; a lock dies with its process.
 Where a lock cannot be taken (no fcntl, a folder that refuses it) the
 process compiles as before.  No MPI message is involved.
 
-Installed once by the package's import (_kernel_cache.configure): on
+Installed once by the package's import (rbsm_dyn/__init__.py, install()): on
 Numba's dispatcher when it is already imported, else when it is imported
 (a finder on sys.meta_path that patches it after it loads), so that
 ``import rbsm_dyn`` alone does not import Numba.
@@ -38,8 +38,8 @@ except ImportError:          # (Windows: no lock, each process compiles)
 #: the package whose kernels are locked (rbsm_dyn)
 _PACKAGE = __package__
 _DISPATCHER = "numba.core.dispatcher"
-#: the locks this process holds (kernel-and-types key -> True)
-_held = {}
+#: the lock files this process holds
+_held = set()
 
 
 def _lock_path(kernel, args):
@@ -81,11 +81,11 @@ def _locking(compile_):
                     fcntl.flock(fd, fcntl.LOCK_EX)
                 except OSError:
                     pass     # (a folder that refuses locks: compile unlocked)
-                _held[path] = True
+                _held.add(path)
                 # from the cache when the process before this one wrote it
                 return compile_(self, sig)
             finally:
-                _held.pop(path, None)
+                _held.discard(path)
                 os.close(fd)  # (releases the lock)
 
     compile.__wrapped__ = compile_
